@@ -1,0 +1,148 @@
+"""Prove a theorem: obligations -> (abstraction) -> z3 in a process pool -> theorem verdict."""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from concurrent.futures import Executor, ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable
+
+from certiloop.models.theorem import Theorem
+
+from .abstraction import abstract
+from .smt import check_valid, smtlib_text
+from .vcgen import Obligation, generate
+from .verdicts import ObligationResult, judge
+
+
+@dataclass
+class TheoremResult:
+    model: str
+    verdict: str  # proved | refuted | unknown
+    expected: str
+    seconds: float
+    obligations: list[ObligationResult]
+    reason: str = ""
+    refutation: Any = None  # refute.Refutation
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def met_expectation(self) -> bool:
+        return self.verdict == self.expected
+
+    def to_json(self) -> dict[str, Any]:
+        return {
+            "model": self.model,
+            "verdict": self.verdict,
+            "expected": self.expected,
+            "seconds": round(self.seconds, 4),
+            "reason": self.reason,
+            "counterexample": self.refutation.to_json() if self.refutation else None,
+            "obligations": [o.to_json() for o in self.obligations],
+        }
+
+
+def discharge_one(ob: Obligation, timeout_s: float) -> ObligationResult:
+    """Prove one obligation: first in abstracted form (if that applies), then as stated."""
+    start = time.perf_counter()
+    abstracted = abstract(ob.formula, ob.abbreviations)
+    if abstracted is not None:
+        answer = check_valid(abstracted, timeout_s)
+        if answer.status == "unsat":
+            res = judge(ob.id, ob.path, abstracted, answer, time.perf_counter() - start)
+            res.backend = "z3 (abstracted)"
+            return res
+    answer = check_valid(ob.formula, timeout_s)
+    return judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
+
+
+def _refute_task(theorem: Theorem, timeout_s: float):
+    from .refute import refute
+
+    return refute(theorem, timeout_s)
+
+
+class Prover:
+    """Holds the worker pool across theorems so workers are forked once, before z3 is used
+    in this process."""
+
+    def __init__(self, jobs: int | None = None, timeout_s: float = 30.0) -> None:
+        self.jobs = max(1, jobs or os.cpu_count() or 1)
+        self.timeout_s = timeout_s
+        self._pool: Executor | None = None
+
+    def __enter__(self) -> "Prover":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(cancel_futures=True)
+
+    def _executor(self) -> Executor | None:
+        if self.jobs == 1:
+            return None
+        if self._pool is None:
+            ctx = multiprocessing.get_context("fork")
+            self._pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx)
+        return self._pool
+
+    def prove(
+        self,
+        theorem: Theorem,
+        on_result: Callable[[ObligationResult], None] | None = None,
+        on_start: Callable[[int], None] | None = None,
+        smtlib_dir: Path | None = None,
+    ) -> TheoremResult:
+        start = time.perf_counter()
+        obligations = generate(theorem)
+        if on_start:
+            on_start(len(obligations))
+        if smtlib_dir is not None:
+            write_smtlib(theorem.name, obligations, smtlib_dir)
+        results = self._discharge(obligations, on_result)
+        verdict, reason, refutation = "proved", "", None
+        if any(r.verdict != "proved" for r in results):
+            refutation, why = self._run(_refute_task, theorem, self.timeout_s)
+            if refutation is not None:
+                verdict = "refuted"
+                reason = f"a run with {refutation.depth} loop iteration(s) violates the guarantee"
+            else:
+                verdict = "unknown"
+                failed = [r for r in results if r.verdict != "proved"]
+                reason = (f"{len(failed)} obligation(s) not proved (first: {failed[0].path}: "
+                          f"{failed[0].verdict}{': ' + failed[0].reason if failed[0].reason else ''}); "
+                          f"{why}")
+        return TheoremResult(theorem.name, verdict, theorem.expected, time.perf_counter() - start,
+                             results, reason, refutation)
+
+    def _run(self, fn, *args):
+        pool = self._executor()
+        return fn(*args) if pool is None else pool.submit(fn, *args).result()
+
+    def _discharge(self, obligations: list[Obligation],
+                   on_result: Callable[[ObligationResult], None] | None) -> list[ObligationResult]:
+        pool = self._executor()
+        results: list[ObligationResult] = []
+        if pool is None or len(obligations) == 1:
+            for ob in obligations:
+                results.append(discharge_one(ob, self.timeout_s))
+                if on_result:
+                    on_result(results[-1])
+            return results
+        futures = [pool.submit(discharge_one, ob, self.timeout_s) for ob in obligations]
+        for fut in futures:
+            results.append(fut.result())
+            if on_result:
+                on_result(results[-1])
+        return results
+
+
+def write_smtlib(model: str, obligations: list[Obligation], folder: Path) -> None:
+    folder.mkdir(parents=True, exist_ok=True)
+    for ob in obligations:
+        text = smtlib_text(ob.formula, f"{model} {ob.id}: {ob.path}")
+        (folder / f"{model}.{ob.id}.smt2").write_text(text + "(check-sat)\n" if "(check-sat)" not in text
+                                                      else text)

@@ -1,0 +1,178 @@
+"""Refutation: find a real run that violates the guarantee.
+
+A failed induction step only says an invariant is not inductive; it does not make a
+design unsafe. So a theorem is `refuted` only by a *run*: the loops are unrolled to at
+most `depth` iterations and the exact [a]P of that loop-free program is checked (ODEs by
+their polynomial solution with the domain held along the whole flow; ODEs without one are
+left out, which only removes runs). A model of the negation is an initial state satisfying
+the assumptions plus the nondeterministic choices and durations of a violating run.
+"""
+
+from __future__ import annotations
+
+import time
+from fractions import Fraction
+from dataclasses import dataclass, field
+from typing import Any
+
+from certiloop.models.programs import ODE, Assign, Choice, Havoc, Program, Seq, Test, program_symbols
+from certiloop.models.terms import BOOL, Implies, Var, substitute
+from certiloop.models.theorem import Theorem
+
+from .exact import evaluate, index_value, truth
+from .interval import show_value
+from .odes import holds_along
+from .smt import ArrayValue, check_valid
+from .vcgen import Names
+from .verdicts import judge, readable
+from .wp import box, expand_modalities, flow_solution, unroll
+
+
+@dataclass
+class Step:
+    """One statement of the violating run that matters to a reader."""
+
+    path: str  # the choices taken so far, e.g. "ctrl1 loop iteration 1 / past boundary, towards"
+    what: str  # "fyp := -1", "ODE for 1 s"
+    state: dict[str, str]  # the theorem's symbols after the statement
+
+    def to_json(self) -> dict[str, Any]:
+        return {"path": self.path, "what": self.what, "state": self.state}
+
+
+@dataclass
+class Refutation:
+    depth: int  # loop iterations of the violating run
+    initial: dict[str, str]  # the theorem's symbols at the start
+    trace: list[Step]
+    violated: str  # the guarantee and its value at the end
+    check: str
+    seconds: float
+    raw: dict[str, Any] = field(default_factory=dict, repr=False)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"depth": self.depth, "initial": self.initial,
+                "trace": [s.to_json() for s in self.trace], "violated": self.violated,
+                "check": self.check, "seconds": round(self.seconds, 4)}
+
+
+def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
+    """(refutation, "") if a violating run was found and re-checked, else (None, why not)."""
+    start = time.perf_counter()
+    why = f"no violating run with at most {theorem.unroll} loop iterations"
+    for depth in range(1, theorem.unroll + 1):
+        names = Names()
+        pre = expand_modalities(theorem.assumptions, names)
+        post = expand_modalities(theorem.guarantee, names)
+        program = unroll(theorem.program, depth)
+        record: dict[int, str] = {}
+        claim = Implies(pre, box(program, post, names, quantify=False, unsolvable="drop",
+                                 record=record))
+        left = max(0.5, timeout_s - (time.perf_counter() - start))
+        answer = check_valid(claim, left)
+        if answer.status == "unknown":
+            return None, f"refutation search at depth {depth}: {answer.reason}"
+        if answer.status == "unsat":
+            continue
+        verdict = judge("run", "", claim, answer, 0.0)
+        if verdict.verdict != "refuted":
+            return None, f"run at depth {depth} did not re-check: {verdict.reason}"
+        model = answer.model or {}
+        initial = {k: v for k, v in model.items() if "@" not in k}
+        trace = Replay(model, record, post).run(program, initial)
+        if trace is None:
+            return None, f"BUG: the solver's run at depth {depth} does not replay"
+        return Refutation(depth, readable(initial), trace, f"{theorem.guarantee} is false at the end",
+                          verdict.check, time.perf_counter() - start, model), ""
+    return None, why
+
+
+class Replay:
+    """Re-run the unrolled program on the solver's initial state and choices, exactly
+    (rationals, or rational intervals for algebraic numbers), to recover the run that
+    violates the guarantee. Choices are resolved by depth-first search; a test that fails
+    (or cannot be decided) closes that branch."""
+
+    def __init__(self, model: dict[str, Any], record: dict[int, str], post) -> None:
+        self.model, self.record, self.post = model, record, post
+
+    def run(self, program: Program, state: dict[str, Any]) -> list[Step] | None:
+        state = dict(state)
+        # Symbols absent from the solver's formula cannot affect the violation: any value
+        # will do, and 0 is the one z3's model completion would pick.
+        for name, sym in program_symbols(program).items():
+            state.setdefault(name, _zero(sym.sort))
+        return self._exec(program, state, (), [], self._at_end)
+
+    def _at_end(self, state, path, steps):
+        return steps if truth(self.post, state) is False else None
+
+    def _show(self, state) -> dict[str, str]:
+        return readable({k: v for k, v in state.items() if "@" not in k})
+
+    def _exec(self, p: Program, state, path, steps, k):
+        if isinstance(p, Assign):
+            return k(_assign(state, p.target, evaluate(p.value, state)), path, steps)
+        if isinstance(p, Havoc):
+            # a choice absent from the solver's formula cannot matter; 0 stands in for it
+            value = self.model.get(self.record.get(id(p), ""), _zero(p.target.sort))
+            new = _assign(state, p.target, value)
+            step = Step(" / ".join(path), f"{p.target} := {show_value(value)}", self._show(new))
+            return k(new, path, steps + [step])
+        if isinstance(p, Test):
+            return k(state, path, steps) if truth(p.cond, state) is True else None
+        if isinstance(p, Seq):
+            return self._seq(p.parts, state, path, steps, k)
+        if isinstance(p, Choice):
+            for label, alt in zip(p.labels, p.alternatives):
+                found = self._exec(alt, state, path + (label,), steps, k)
+                if found is not None:
+                    return found
+            return None
+        if isinstance(p, ODE):
+            name = self.record.get(id(p))
+            if name is None:  # an ODE the refuter left out: no runs through it
+                return None
+            s, sol = flow_solution(p)
+            tau = Var(name)
+            duration = self.model.get(name, Fraction(0))
+            env = dict(state, **{name: duration})
+            if truth(holds_along(p.domain, sol, tau, s), env) is not True:
+                return None
+            new = dict(state)
+            for var, x in sol.items():
+                new[var] = evaluate(substitute(x, {s.payload: tau}), env)
+            step = Step(" / ".join(path), f"follow the ODE for {show_value(duration)} s", self._show(new))
+            return k(new, path, steps + [step])
+        raise TypeError(p)
+
+    def _seq(self, parts, state, path, steps, k):
+        if not parts:
+            return k(state, path, steps)
+        return self._exec(parts[0], state, path, steps,
+                          lambda st, pa, sp: self._seq(parts[1:], st, pa, sp, k))
+
+
+def _zero(sort) -> Any:
+    if sort.is_array:
+        return ArrayValue({}, _zero(sort.range))
+    return False if sort == BOOL else Fraction(0)
+
+
+def _assign(state: dict[str, Any], target, value) -> dict[str, Any]:
+    new = dict(state)
+    if target.op == "var":
+        new[target.payload] = value
+        return new
+    idx: list = []
+    root = target
+    while root.op == "select":
+        idx[:0] = root.args[1:]
+        root = root.args[0]
+    arr = state.get(root.payload)
+    if not isinstance(arr, ArrayValue):
+        arr = ArrayValue({}, None)
+    entries = dict(arr.entries)
+    entries[tuple(index_value(evaluate(i, state)) for i in idx)] = value
+    new[root.payload] = ArrayValue(entries, arr.default)
+    return new
