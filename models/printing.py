@@ -9,7 +9,7 @@ from .terms import Node
 # binding strength: higher binds tighter
 _PREC = {
     "iff": 1, "implies": 2, "or": 3, "and": 4, "not": 5, "forall": 5, "exists": 5,
-    "box": 5, "diamond": 5, "cmp": 6, "+": 7, "neg": 8, "*": 9, "/": 9, "^": 10,
+    "box": 5, "diamond": 5, "cmp": 6, "+": 7, "neg": 9, "*": 9, "/": 9, "^": 10,
 }
 _CMP = {"==": "=", "!=": "!=", "<": "<", "<=": "<=", ">": ">", ">=": ">="}
 
@@ -49,7 +49,7 @@ def show(n: Node, outer: int = 0) -> str:
             else:
                 s += " + " + show(a, prec)
     elif op == "neg":
-        s = "-" + show(n.args[0], prec + 1)
+        s = "-" + show(n.args[0], 10)
     elif op == "*":
         s = "*".join(show(a, prec) for a in n.args)
     elif op == "/":

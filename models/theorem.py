@@ -89,11 +89,21 @@ def _nonzero_facts(assumptions: Node) -> set[str]:
     return out
 
 
+def _nonzero(d: Node, safe: set[str]) -> bool:
+    """d is a product/power of nonzero literals and parameters the assumptions bound away from 0."""
+    if d.op == "const":
+        return d.payload != 0
+    if d.op == "var":
+        return d.payload in safe
+    if d.op in ("*", "neg", "^", "/"):
+        return all(_nonzero(a, safe) for a in d.args)
+    return False
+
+
 def _check_divisions(n: Node, safe: set[str], where: str) -> None:
     if n.op == "/":
         d = n.args[1]
-        ok = (d.op == "const" and d.payload != 0) or (d.op == "var" and d.payload in safe)
-        if not ok:
+        if not _nonzero(d, safe):
             raise ModelError(
                 f"{where}: division by `{show(d)}`, which is not a constant known to be nonzero; "
                 "divide by a parameter the assumptions bound away from 0, or write "
@@ -152,7 +162,7 @@ def check_well_formed(t: Theorem) -> None:
             raise ModelError(f"{where}: symbol `{name}` used with sorts {declared[name].sort} and {v.sort}")
     # An assumption names a *constant* only if the program never writes it; a guarantee
     # about a symbol nobody mentions anywhere else is almost always a typo.
-    mentioned = set(free_vars(t.assumptions)) | set(prog_syms)
+    mentioned = set(free_vars(t.assumptions)) | set(prog_syms) | _written_in_modalities(t.guarantee)
     for name in free_vars(t.guarantee):
         if name not in mentioned:
             raise ModelError(
@@ -167,6 +177,13 @@ def check_well_formed(t: Theorem) -> None:
     _check_divisions(t.assumptions, safe, f"{where}: assumptions")
     _check_divisions(t.guarantee, safe, f"{where}: guarantee")
     _check_quantifier_sorts(t.guarantee, where)
+
+
+def _written_in_modalities(n: Node) -> set[str]:
+    out: set[str] = set(written(n.payload)) if n.op in ("box", "diamond") else set()
+    for a in n.args:
+        out |= _written_in_modalities(a)
+    return out
 
 
 def _check_quantifier_sorts(n: Node, where: str) -> None:

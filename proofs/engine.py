@@ -45,8 +45,12 @@ class TheoremResult:
         }
 
 
-def discharge_one(ob: Obligation, timeout_s: float) -> ObligationResult:
-    """Prove one obligation: first in abstracted form (if that applies), then as stated."""
+def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) -> ObligationResult:
+    """Prove one obligation: first in abstracted form (if that applies), then as stated.
+
+    The abstracted form is only trusted for `proved` (a generalisation); a counterexample
+    always comes from the obligation as stated. keep_model keeps the raw solver model,
+    which may hold live z3 handles and so cannot leave this process."""
     start = time.perf_counter()
     abstracted = abstract(ob.formula, ob.abbreviations)
     if abstracted is not None:
@@ -56,7 +60,10 @@ def discharge_one(ob: Obligation, timeout_s: float) -> ObligationResult:
             res.backend = "z3 (abstracted)"
             return res
     answer = check_valid(ob.formula, timeout_s)
-    return judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
+    res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
+    if not keep_model:
+        res.raw_model = None
+    return res
 
 
 def _refute_task(theorem: Theorem, timeout_s: float):

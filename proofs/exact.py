@@ -6,10 +6,12 @@ obligation, with the model's values substituted, must evaluate to false.
 
 from __future__ import annotations
 
+import itertools
+import math
 from fractions import Fraction
 from typing import Any
 
-from certiloop.models.terms import Node
+from certiloop.models.terms import INT, Node, free_vars
 
 from . import interval as iv
 from .smt import ArrayValue
@@ -31,8 +33,10 @@ def evaluate(n: Node, state: dict[str, Any]) -> Any:
         return True
     if op == "false":
         return False
-    if op in ("forall", "exists", "box", "diamond"):
-        raise Undecided(f"cannot evaluate the quantified formula `{n}` exactly")
+    if op in ("forall", "exists"):
+        return _bounded_quantifier(n, state)
+    if op in ("box", "diamond"):
+        raise Undecided(f"cannot evaluate the modal formula `{n}` here")
     if op == "and":
         vals = [evaluate(a, state) for a in n.args]
         if any(v is False for v in vals):
@@ -77,7 +81,11 @@ def evaluate(n: Node, state: dict[str, Any]) -> Any:
             if isinstance(a, (Fraction, int)) or isinstance(b, (Fraction, int)):
                 raise Undecided(f"cannot compare `{n}`")
             return (a == b) if n.payload == "==" else (a != b) if n.payload == "!=" else None
-        return iv.compare(n.payload, iv.lift(a), iv.lift(b))
+        decided = iv.compare(n.payload, iv.lift(a), iv.lift(b))
+        if decided is None and n.payload in ("==", "!="):
+            equal = _algebraically_equal(n.args[0], n.args[1], state)
+            decided = equal if n.payload == "==" else not equal
+        return decided
     vals = [iv.lift(evaluate(a, state)) for a in n.args]
     if op == "+":
         out = vals[0]
@@ -99,6 +107,107 @@ def evaluate(n: Node, state: dict[str, Any]) -> Any:
     if op == "^":
         return iv.power(vals[0], n.payload)
     raise Undecided(f"cannot evaluate `{n}`")
+
+
+MAX_ENUMERATION = 200_000
+
+
+def _bounded_quantifier(n: Node, state: dict[str, Any]) -> bool | None:
+    """∀/∃ over integers whose guard bounds every variable: decide by enumeration."""
+    variables = n.payload
+    body = n.args[0]
+    if any(v.sort != INT for v in variables):
+        raise Undecided(f"cannot evaluate `{n}` exactly (quantifier over a non-integer sort)")
+    guard_op = "implies" if n.op == "forall" else "and"
+    if body.op != guard_op:
+        raise Undecided(f"cannot evaluate `{n}`: no guard bounds its variables")
+    guard = body.args[0]
+    ranges = []
+    total = 1
+    for v in variables:
+        lo, hi = _bounds_of(v.payload, guard, state)
+        if lo is None or hi is None:
+            raise Undecided(f"cannot evaluate `{n}`: `{v.payload}` is not bounded by the guard")
+        ranges.append(range(lo, hi + 1))
+        total *= max(0, hi - lo + 1)
+        if total > MAX_ENUMERATION:
+            raise Undecided(f"cannot evaluate `{n}`: more than {MAX_ENUMERATION} cases")
+    undecided = False
+    for combo in itertools.product(*ranges):
+        inner = dict(state, **{v.payload: x for v, x in zip(variables, combo)})
+        val = evaluate(body, inner)
+        if val is None:
+            undecided = True
+        elif (val is False) == (n.op == "forall"):
+            return n.op == "exists"
+    return None if undecided else n.op == "forall"
+
+
+def _bounds_of(name: str, guard: Node, state: dict[str, Any]) -> tuple[int | None, int | None]:
+    lo: int | None = None
+    hi: int | None = None
+    for atom in guard.args if guard.op == "and" else (guard,):
+        if atom.op != "cmp":
+            continue
+        a, b = atom.args
+        op = atom.payload
+        if b.op == "var" and b.payload == name and not (a.op == "var" and a.payload == name):
+            a, b = b, a
+            op = {"<": ">", "<=": ">=", ">": "<", ">=": "<="}.get(op, op)
+        if not (a.op == "var" and a.payload == name) or name in free_vars(b):
+            continue
+        try:
+            bound = evaluate(b, state)
+        except Undecided:
+            continue
+        if not isinstance(bound, Fraction) and not isinstance(bound, int):
+            continue
+        fl, ce = math.floor(bound), math.ceil(bound)
+        if op in ("<", "<="):
+            cand = (ce - 1) if op == "<" else fl
+            hi = cand if hi is None else min(hi, cand)
+        elif op in (">", ">="):
+            cand = (fl + 1) if op == ">" else ce
+            lo = cand if lo is None else max(lo, cand)
+    return lo, hi
+
+
+def _algebraically_equal(a: Node, b: Node, state: dict[str, Any]) -> bool:
+    """Decide a = b exactly when z3's values are algebraic numbers: evaluate both sides in
+    sympy from the leaves (each algebraic value as the exact root it is) and test whether
+    the minimal polynomial of a - b is z, i.e. a - b = 0."""
+    import sympy
+
+    z = sympy.Symbol("z")
+    diff = _sympy_value(a, state) - _sympy_value(b, state)
+    return sympy.minimal_polynomial(diff, z) == z
+
+
+def _sympy_value(n: Node, state: dict[str, Any]):
+    import sympy
+
+    if n.op in ("var", "select"):
+        x = evaluate(n, state)
+        if isinstance(x, iv.Interval):
+            if not x.poly:
+                raise Undecided("an approximate value without its exact algebraic number")
+            poly = sympy.Poly(list(reversed(x.poly)), sympy.Symbol("z"))
+            return sympy.CRootOf(poly, x.root_index - 1)
+        return sympy.Rational(Fraction(x).numerator, Fraction(x).denominator)
+    if n.op == "const":
+        return sympy.Rational(n.payload.numerator, n.payload.denominator)
+    vals = [_sympy_value(a, state) for a in n.args]
+    if n.op == "+":
+        return sympy.Add(*vals)
+    if n.op == "*":
+        return sympy.Mul(*vals)
+    if n.op == "neg":
+        return -vals[0]
+    if n.op == "/":
+        return vals[0] / vals[1]
+    if n.op == "^":
+        return vals[0] ** n.payload
+    raise Undecided(f"cannot evaluate `{n}` exactly")
 
 
 def _numeric(x: Any) -> bool:

@@ -17,6 +17,10 @@ class Interval:
     lo: Fraction
     hi: Fraction
     decimal: str = ""  # how z3 printed the algebraic number, for humans
+    # the exact number, when known: the root_index-th real root (1-based, ascending) of the
+    # polynomial with these ascending integer coefficients
+    poly: tuple[int, ...] = ()
+    root_index: int = 0
 
     def __post_init__(self) -> None:
         if self.lo > self.hi:

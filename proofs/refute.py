@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import time
 from fractions import Fraction
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from certiloop.models.programs import ODE, Assign, Choice, Havoc, Program, Seq, Test, program_symbols
@@ -48,7 +48,6 @@ class Refutation:
     violated: str  # the guarantee and its value at the end
     check: str
     seconds: float
-    raw: dict[str, Any] = field(default_factory=dict, repr=False)
 
     def to_json(self) -> dict[str, Any]:
         return {"depth": self.depth, "initial": self.initial,
@@ -79,11 +78,13 @@ def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
             return None, f"run at depth {depth} did not re-check: {verdict.reason}"
         model = answer.model or {}
         initial = {k: v for k, v in model.items() if "@" not in k}
-        trace = Replay(model, record, post).run(program, initial)
+        replay = Replay(model, record, post)
+        trace = replay.run(program, initial)
         if trace is None:
             return None, f"BUG: the solver's run at depth {depth} does not replay"
-        return Refutation(depth, readable(initial), trace, f"{theorem.guarantee} is false at the end",
-                          verdict.check, time.perf_counter() - start, model), ""
+        # the model may hold live z3 handles (array lookups): keep only plain text
+        return Refutation(depth, replay.start, trace, f"{theorem.guarantee} is false at the end",
+                          verdict.check, time.perf_counter() - start), ""
     return None, why
 
 
@@ -95,6 +96,7 @@ class Replay:
 
     def __init__(self, model: dict[str, Any], record: dict[int, str], post) -> None:
         self.model, self.record, self.post = model, record, post
+        self.start: dict[str, str] = {}
 
     def run(self, program: Program, state: dict[str, Any]) -> list[Step] | None:
         state = dict(state)
@@ -102,6 +104,7 @@ class Replay:
         # will do, and 0 is the one z3's model completion would pick.
         for name, sym in program_symbols(program).items():
             state.setdefault(name, _zero(sym.sort))
+        self.start = self._show(state)
         return self._exec(program, state, (), [], self._at_end)
 
     def _at_end(self, state, path, steps):
@@ -112,7 +115,9 @@ class Replay:
 
     def _exec(self, p: Program, state, path, steps, k):
         if isinstance(p, Assign):
-            return k(_assign(state, p.target, evaluate(p.value, state)), path, steps)
+            new = _assign(state, p.target, evaluate(p.value, state))
+            step = Step(" / ".join(path), f"{p.target} := {p.value}", self._show(new))
+            return k(new, path, steps + [step])
         if isinstance(p, Havoc):
             # a choice absent from the solver's formula cannot matter; 0 stands in for it
             value = self.model.get(self.record.get(id(p), ""), _zero(p.target.sort))
@@ -125,7 +130,9 @@ class Replay:
             return self._seq(p.parts, state, path, steps, k)
         if isinstance(p, Choice):
             for label, alt in zip(p.labels, p.alternatives):
-                found = self._exec(alt, state, path + (label,), steps, k)
+                # the label scopes the branch only; what follows the choice is back at `path`
+                found = self._exec(alt, state, path + (label,), steps,
+                                   lambda st, _pa, sp: k(st, path, sp))
                 if found is not None:
                     return found
             return None

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Any
+from typing import Any, Callable
 
 try:
     import z3
@@ -199,18 +199,27 @@ def algebraic_interval(v: z3.AlgebraicNumRef, digits: int = 30) -> Interval:
     mid = v.approx(digits)
     m = Fraction(mid.numerator_as_long(), mid.denominator_as_long())
     eps = Fraction(1, 10**digits)
-    return Interval(m - eps, m + eps, decimal=v.as_decimal(12).rstrip("?"))
+    coeffs = tuple(c.as_long() for c in v.poly())
+    return Interval(m - eps, m + eps, decimal=v.as_decimal(12).rstrip("?"),
+                    poly=coeffs, root_index=v.index())
 
 
 @dataclass
 class ArrayValue:
-    """A finite map with a default, as z3 models arrays and families."""
+    """A finite map with a default, as z3 models arrays and families.
+
+    `lookup` (only inside the process that holds the z3 model) answers reads that the
+    finite part does not cover, for arrays z3 describes by a lambda term.
+    """
 
     entries: dict[tuple, Any]
     default: Any
+    lookup: Callable[[tuple], Any] | None = field(default=None, compare=False, repr=False)
 
     def get(self, idx: tuple) -> Any:
-        return self.entries.get(idx, self.default)
+        if idx in self.entries:
+            return self.entries[idx]
+        return self.lookup(idx) if self.lookup is not None else self.default
 
     def __str__(self) -> str:
         parts = [f"{','.join(map(_short, k))}: {_short(v)}" for k, v in self.entries.items()]
@@ -241,7 +250,24 @@ def _array_value(v: z3.ExprRef, model: z3.ModelRef) -> ArrayValue | str:
             *idx, val = entry
             entries.setdefault(tuple(_value(i, model) for i in idx), _value(val, model))
         return ArrayValue(entries, _value(interp.else_value(), model))
-    return str(v)
+    base = v
+
+    def lookup(idx: tuple) -> Any:
+        args = [_z3_index(x, base.sort().domain_n(k) if base.sort().arity() > 1 else base.sort().domain())
+                for k, x in enumerate(idx)]
+        return _value(model.eval(z3.Select(base, *args), model_completion=True), model)
+
+    return ArrayValue(entries, None, lookup)
+
+
+def _z3_index(x: Any, sort: z3.SortRef) -> z3.ExprRef:
+    if isinstance(x, bool):
+        return z3.BoolVal(x)
+    if isinstance(x, int):
+        return z3.IntVal(x)
+    if isinstance(x, Fraction):
+        return z3.RealVal(f"{x.numerator}/{x.denominator}")
+    raise ValueError(f"cannot index a z3 array by {x!r}")
 
 
 def read_model(model: z3.ModelRef, tr: Z3Translator) -> dict[str, Any]:

@@ -107,12 +107,11 @@ class VCGen:
     def run(self) -> list[Obligation]:
         t = self.theorem
         start = State((expand_modalities(t.assumptions, self.names),), {}, ())
-        post = expand_modalities(t.guarantee, self.names)
-        self.exec(t.program, start, lambda st: self.emit(st, post, "postcondition"))
+        self.exec(t.program, start, lambda st: self.emit(st, t.guarantee, "postcondition"))
         return self.obligations
 
     def emit(self, st: State, goal: Node, what: str) -> None:
-        goal = st.value(expand_modalities(goal, self.names))
+        goal = st.value(expand_modalities(goal, self.names, positive=True))
         facts = st.facts
         path = " / ".join(st.path + (what,))
         oid = f"o{len(self.obligations) + 1}"
@@ -164,7 +163,7 @@ class VCGen:
             inv = self.theorem.guarantee
         self.emit(st.at(f"{p.label} init"), inv, "invariant holds initially")
         inside = self.havoc(st, written(p.body), f"in {p.label}")
-        inside = inside.assume(inside.value(inv))
+        inside = inside.assume(inside.value(expand_modalities(inv, self.names)))
         self.exec(p.body, inside.at(f"{p.label} step"),
                   lambda s: self.emit(s, inv, "invariant preserved"))
         k(inside.at(f"{p.label} use"))

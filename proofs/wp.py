@@ -36,16 +36,25 @@ def has_modality(f: Node) -> bool:
     return f.op in MODALITIES or any(has_modality(a) for a in f.args)
 
 
-def expand_modalities(f: Node, names) -> Node:
-    """Replace every [a]P / <a>P (a loop-free) by its first-order equivalent."""
+def expand_modalities(f: Node, names, positive: bool = False) -> Node:
+    """Replace every [a]P / <a>P (a loop-free) by its first-order equivalent.
+
+    positive=True says f is a goal read with its free symbols universally quantified: a
+    [.] reached through ∧, ∨, the right of ->, and ∀ only may then use free fresh symbols
+    (so a counterexample shows their values) instead of quantifiers."""
     if not has_modality(f):
         return f
     if f.op == "box":
-        return box(f.payload, expand_modalities(f.args[0], names), names, quantify=True)
+        return box(f.payload, expand_modalities(f.args[0], names, positive), names, quantify=not positive)
     if f.op == "diamond":
         return diamond(f.payload, expand_modalities(f.args[0], names), names)
     if f.op in ("forall", "exists"):
-        return Node(f.op, (expand_modalities(f.args[0], names),), f.sort, f.payload)
+        keep = positive and f.op == "forall"
+        return Node(f.op, (expand_modalities(f.args[0], names, keep),), f.sort, f.payload)
+    if f.op in ("and", "or"):
+        return rebuild(f, tuple(expand_modalities(a, names, positive) for a in f.args))
+    if f.op == "implies":
+        return rebuild(f, (expand_modalities(f.args[0], names), expand_modalities(f.args[1], names, positive)))
     return rebuild(f, tuple(expand_modalities(a, names) for a in f.args))
 
 

@@ -1,0 +1,51 @@
+"""Shared helpers for benchmarks: timed repeats, a printed table, a JSON record."""
+
+from __future__ import annotations
+
+import json
+import platform
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+RESULTS = Path(__file__).parent / "results"
+
+
+def wall(cmd: list[str], repeats: int) -> list[float]:
+    """Wall-clock seconds of a command, start-up included, `repeats` times."""
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        subprocess.run(cmd, check=False, capture_output=True)
+        times.append(time.perf_counter() - t0)
+    return times
+
+
+def summary(times: list[float]) -> dict[str, float]:
+    return {"median_s": statistics.median(times), "min_s": min(times), "max_s": max(times),
+            "runs": len(times)}
+
+
+def record(name: str, rows: list[dict]) -> None:
+    """Print rows as a table and write them, with machine facts, to results/NAME.json."""
+    keys = list(rows[0])
+    widths = [max(len(k), *(len(_fmt(r[k])) for r in rows)) for k in keys]
+    print("  ".join(k.ljust(w) for k, w in zip(keys, widths)))
+    for r in rows:
+        print("  ".join(_fmt(r[k]).ljust(w) for k, w in zip(keys, widths)))
+    RESULTS.mkdir(exist_ok=True)
+    payload = {"benchmark": name, "python": sys.version.split()[0], "machine": platform.machine(),
+               "cores": _cores(), "date": time.strftime("%Y-%m-%d"), "rows": rows}
+    (RESULTS / f"{name}.json").write_text(json.dumps(payload, indent=2) + "\n")
+
+
+def _cores() -> int:
+    import os
+
+    return os.cpu_count() or 1
+
+
+def _fmt(x) -> str:
+    return f"{x:.3f}" if isinstance(x, float) else str(x)

@@ -1,0 +1,42 @@
+"""The model library: dotted names -> theorem builders, in the order `certiloop list` shows."""
+
+from __future__ import annotations
+
+import difflib
+from typing import Callable
+
+from . import cfmpa, sbs, textbook
+from .terms import ModelError
+from .theorem import Theorem
+
+_BUILDERS: dict[str, Callable[[], Theorem]] = {
+    "sbs.ctrl1": sbs.ctrl1,
+    "sbs.ctrl1_broken": sbs.ctrl1_broken,
+    "cfmpa.builtdr": cfmpa.builtdr,
+    "cfmpa.builtdr_skips_last_row": cfmpa.builtdr_skips_last_row,
+    "textbook.bouncing_ball": textbook.bouncing_ball,
+    "textbook.bouncing_ball_superelastic": textbook.bouncing_ball_superelastic,
+    "textbook.train": textbook.train,
+    "textbook.train_no_lookahead": textbook.train_no_lookahead,
+    "textbook.water_tank": textbook.water_tank,
+    "textbook.water_tank_late_check": textbook.water_tank_late_check,
+    "textbook.cart_forward": textbook.cart_forward,
+    "textbook.cart_may_brake": textbook.cart_may_brake,
+}
+
+
+def names() -> list[str]:
+    return list(_BUILDERS)
+
+
+def get(name: str) -> Theorem:
+    try:
+        builder = _BUILDERS[name]
+    except KeyError:
+        close = difflib.get_close_matches(name, list(_BUILDERS), n=3, cutoff=0.6)
+        hint = f"; did you mean {', '.join(close[:3])}?" if close else "; `certiloop list` shows them"
+        raise ModelError(f"unknown model {name!r}{hint}") from None
+    theorem = builder()
+    if theorem.name != name:
+        raise ModelError(f"library entry {name} builds a theorem named {theorem.name}")
+    return theorem

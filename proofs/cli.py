@@ -1,0 +1,207 @@
+"""The `certiloop` command line. Exit codes: 0 claims hold, 1 a claim failed, 2 bad input."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from pathlib import Path
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class BadInput(Exception):
+    """A user error: reported on one line, exit 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # argparse prints usage + exits 2; keep it one line
+        raise BadInput(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="certiloop",
+        description="Prove hybrid-program models of robot controllers safe, or show why they are not.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    sub.add_parser("list", help="models in the library and their expected verdicts",
+                   description="List the library's models with their expected verdicts.")
+
+    prove = sub.add_parser(
+        "prove", help="generate and discharge proof obligations",
+        description="Prove MODEL(s): split each into proof obligations, discharge them with z3, "
+        "and, if any is not proved, search for a run that violates the guarantee. "
+        "Exit 0 if every obligation of every model is proved, 1 otherwise.")
+    prove.add_argument("models", nargs="+", metavar="MODEL",
+                       help="library name (sbs.ctrl1) or path/to/file.py:theorem")
+    prove.add_argument("--json", metavar="F", help="write results as JSON to F ('-' for stdout)")
+    prove.add_argument("--smtlib", metavar="DIR", help="write every obligation as an SMT-LIB 2 file")
+    prove.add_argument("--timeout", metavar="S", type=float, default=30.0,
+                       help="seconds per obligation before it is 'unknown' (default 30)")
+    prove.add_argument("--jobs", metavar="N", type=int, default=None,
+                       help="worker processes (default: number of cores)")
+    prove.add_argument("-v", "--verbose", action="store_true", help="list every obligation")
+
+    gate = sub.add_parser(
+        "gate", help="check every model against its expected verdict (for CI)",
+        description="Prove each MODEL (default: the whole library) and compare with the verdict "
+        "its author expects. Exit 0 only if every model met its expectation; a proof that "
+        "became 'unknown' fails the gate.")
+    gate.add_argument("models", nargs="*", metavar="MODEL",
+                      help="library names or path/to/file.py:theorem (default: the library)")
+    gate.add_argument("--json", metavar="F", help="write the gate report as JSON to F")
+    gate.add_argument("--timeout", metavar="S", type=float, default=60.0,
+                      help="seconds per obligation (default 60)")
+    gate.add_argument("--jobs", metavar="N", type=int, default=None,
+                      help="worker processes (default: number of cores)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except BadInput as exc:
+        print(f"certiloop: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("certiloop: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return EXIT_FAILED
+    except ImportError as exc:
+        print(f"certiloop: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except Exception as exc:  # never a traceback for users; CERTILOOP_DEBUG=1 shows it
+        if os.environ.get("CERTILOOP_DEBUG"):
+            raise
+        from certiloop.models.terms import ModelError
+
+        if isinstance(exc, ModelError):
+            print(f"certiloop: error: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        print(f"certiloop: internal error: {type(exc).__name__}: {exc} "
+              "(set CERTILOOP_DEBUG=1 for the traceback)", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+def _main(argv: list[str] | None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.command is None:
+        build_parser().print_help()
+        return EXIT_BAD_INPUT
+    if args.command == "list":
+        return cmd_list()
+    if args.command == "prove":
+        return cmd_prove(args)
+    if args.command == "gate":
+        return cmd_gate(args)
+    raise BadInput(f"unknown command {args.command}")  # pragma: no cover
+
+
+def cmd_list() -> int:
+    from rich.console import Console
+    from rich.table import Table
+
+    from certiloop.models import library
+
+    table = Table()
+    table.add_column("model", no_wrap=True)
+    table.add_column("expected", no_wrap=True)
+    table.add_column("what it is")
+    for name in library.names():
+        t = library.get(name)
+        table.add_row(name, t.expected, t.description)
+    Console().print(table)
+    return EXIT_OK
+
+
+def _check_common(args: argparse.Namespace) -> None:
+    if args.timeout <= 0:
+        raise BadInput(f"--timeout must be positive, got {args.timeout:g}")
+    if args.jobs is not None and args.jobs < 1:
+        raise BadInput(f"--jobs must be at least 1, got {args.jobs}")
+
+
+def cmd_gate(args: argparse.Namespace) -> int:
+    _check_common(args)
+    from rich.console import Console
+    from rich.table import Table
+
+    from certiloop.models import library
+    from certiloop.proofs.engine import Prover
+    from certiloop.proofs.gate import run_gate
+    from certiloop.proofs.loading import load
+    from certiloop.proofs.report import verdict_text
+
+    theorems = [load(spec) for spec in (args.models or library.names())]
+    out, err = Console(), Console(stderr=True)
+    with Prover(jobs=args.jobs, timeout_s=args.timeout) as prover:
+        if err.is_terminal:
+            with err.status("gate") as status:
+                entries = run_gate(theorems, prover,
+                                   on_model=lambda e: status.update(f"gate: {e.result.model} done"))
+        else:
+            entries = run_gate(theorems, prover)
+    table = Table(title="certiloop gate")
+    for col in ("model", "expected", "verdict", "obligations", "s", "gate"):
+        table.add_column(col, no_wrap=col != "model", overflow="fold")
+    for e in entries:
+        r = e.result
+        proved = sum(o.verdict == "proved" for o in r.obligations)
+        table.add_row(r.model, r.expected, verdict_text(r.verdict), f"{proved}/{len(r.obligations)}",
+                      f"{r.seconds:.2f}", "[green]PASS[/]" if e.passed else "[bold red]FAIL[/]")
+    out.print(table)
+    failed = [e for e in entries if not e.passed]
+    for e in failed:
+        out.print(f"FAIL {e.result.model}: {e.message}", highlight=False, markup=False)
+    out.print(f"{len(entries) - len(failed)} passed, {len(failed)} failed", highlight=False)
+    if args.json:
+        Path(args.json).write_text(json.dumps([e.to_json() for e in entries], indent=2) + "\n")
+    return EXIT_OK if not failed else EXIT_FAILED
+
+
+def cmd_prove(args: argparse.Namespace) -> int:
+    _check_common(args)
+    from certiloop.proofs.loading import load
+
+    theorems = [load(spec) for spec in args.models]  # all bad names fail before any work
+
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from certiloop.proofs.engine import Prover
+    from certiloop.proofs.report import show_result
+
+    out = Console(stderr=args.json == "-")
+    err = Console(stderr=True)
+    results = []
+    with Prover(jobs=args.jobs, timeout_s=args.timeout) as prover:
+        for theorem in theorems:
+            smt_dir = Path(args.smtlib) if args.smtlib else None
+            if err.is_terminal:
+                with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                              TimeElapsedColumn(), console=err, transient=True) as bar:
+                    task = bar.add_task(f"proving {theorem.name}", total=None)
+                    result = prover.prove(theorem,
+                                          on_start=lambda n: bar.update(task, total=n),
+                                          on_result=lambda r: bar.advance(task), smtlib_dir=smt_dir)
+            else:
+                result = prover.prove(theorem, smtlib_dir=smt_dir)
+            show_result(out, result, verbose=args.verbose)
+            results.append(result)
+    if args.json:
+        payload = results[0].to_json() if len(results) == 1 else [r.to_json() for r in results]
+        text = json.dumps(payload, indent=2)
+        if args.json == "-":
+            print(text)
+        else:
+            Path(args.json).write_text(text + "\n")
+    all_proved = all(o.verdict == "proved" for r in results for o in r.obligations)
+    return EXIT_OK if all_proved else EXIT_FAILED
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

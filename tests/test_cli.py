@@ -1,0 +1,138 @@
+"""End-to-end CLI: exit codes, JSON, SMT-LIB, user models, one-line errors."""
+
+import json
+import os
+import subprocess
+import sys
+import textwrap
+
+import pytest
+import z3
+
+from certiloop.proofs.cli import main
+
+
+def run(*args, cwd=None):
+    """Run the installed console script as a user would (no terminal: no progress bar)."""
+    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", *args],
+                          capture_output=True, text=True, cwd=cwd, timeout=300,
+                          env={**os.environ, "COLUMNS": "200"})
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+def test_list_shows_models_and_expectations():
+    code, out, _ = run("list")
+    assert code == 0
+    assert "sbs.ctrl1" in out and "sbs.ctrl1_broken" in out and "refuted" in out
+
+
+def test_prove_proved_model_exits_0_and_writes_json(tmp_path):
+    out_file = tmp_path / "r.json"
+    code, out, err = run("prove", "sbs.ctrl1", "--json", str(out_file), "--jobs", "2")
+    assert code == 0, err
+    assert "proved" in out
+    data = json.loads(out_file.read_text())
+    assert data["model"] == "sbs.ctrl1" and data["verdict"] == "proved"
+    assert set(data) >= {"model", "verdict", "seconds", "obligations"}
+    for ob in data["obligations"]:
+        assert set(ob) >= {"id", "path", "verdict", "seconds", "backend", "counterexample"}
+        assert ob["verdict"] == "proved"
+    assert err == ""  # piped: no progress bar
+
+
+def test_prove_refuted_model_exits_1_and_prints_the_run():
+    code, out, _ = run("prove", "sbs.ctrl1_broken")
+    assert code == 1
+    assert "counterexample run" in out and "past boundary, towards" in out
+    assert "violated: py >= 0" in out
+
+
+def test_json_to_stdout_for_several_models():
+    code, out, _ = run("prove", "textbook.train", "textbook.water_tank_late_check", "--json", "-")
+    assert code == 1
+    data = json.loads(out)
+    assert [d["verdict"] for d in data] == ["proved", "refuted"]
+    assert data[1]["counterexample"]["trace"]
+
+
+def test_smtlib_files_recheck_with_a_fresh_solver(tmp_path):
+    code, _, _ = run("prove", "textbook.water_tank", "--smtlib", str(tmp_path))
+    assert code == 0
+    files = sorted(tmp_path.glob("*.smt2"))
+    assert files
+    for f in files:
+        solver = z3.Solver()
+        solver.from_file(str(f))
+        assert solver.check() == z3.unsat, f.name  # unsat negation = valid obligation
+
+
+@pytest.mark.parametrize("args, message", [
+    (["prove", "sbs.nope"], "unknown model 'sbs.nope'"),
+    (["prove", "missing.py:thm"], "missing.py: no such file"),
+    (["prove", "sbs.ctrl1", "--timeout", "0"], "--timeout must be positive"),
+    (["prove", "sbs.ctrl1", "--jobs", "0"], "--jobs must be at least 1"),
+    (["prove"], "the following arguments are required"),
+    (["frobnicate"], "invalid choice"),
+])
+def test_bad_input_is_one_line_exit_2(args, message):
+    code, out, err = run(*args)
+    assert code == 2
+    assert message in err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+
+
+USER_MODEL = textwrap.dedent("""
+    from certiloop.models import Reals, Theorem, And, assign, havoc, loop, seq, test
+
+    x, v = Reals("x v")
+
+    def safe():
+        step = seq(havoc(v), test(And(v >= 0, v <= 1)), assign(x, x + v))
+        return Theorem("user.safe", x >= 0, loop(step, x >= 0), x >= 0)
+
+    unsafe = Theorem("user.unsafe", x >= 0, loop(seq(havoc(v), assign(x, x + v)), x >= 0), x >= 0,
+                     expected="refuted")
+    bad_division = "not a theorem"
+
+    def broken():
+        return Theorem("user.broken", True, assign(x, 1 / v), x >= 0)
+""")
+
+
+def test_user_model_files(tmp_path):
+    f = tmp_path / "mymodel.py"
+    f.write_text(USER_MODEL)
+    assert run("prove", f"{f}:safe")[0] == 0
+    code, out, _ = run("prove", f"{f}:unsafe")
+    assert code == 1 and "refuted" in out
+    code, _, err = run("prove", f"{f}:nothing")
+    assert code == 2 and "defines no theorem named 'nothing'" in err
+    code, _, err = run("prove", f"{f}:bad_division")
+    assert code == 2 and "not a certiloop Theorem" in err
+    code, _, err = run("prove", f"{f}:broken")
+    assert code == 2 and "division by `v`" in err and "Traceback" not in err
+
+
+def test_syntax_error_in_user_file_names_the_line(tmp_path):
+    f = tmp_path / "bad.py"
+    f.write_text("x = (\n")
+    code, _, err = run("prove", f"{f}:thm")
+    assert code == 2 and "bad.py:" in err and "syntax error" in err
+
+
+def test_main_returns_codes_in_process(capsys):
+    assert main(["prove", "textbook.cart_forward", "--jobs", "1"]) == 0
+    assert main(["prove", "textbook.cart_may_brake", "--jobs", "1"]) == 1
+    assert main(["prove", "nope"]) == 2
+
+
+def test_missing_z3_is_a_one_line_error(tmp_path):
+    fake = tmp_path / "z3"
+    fake.mkdir()
+    (fake / "__init__.py").write_text("raise ImportError('No module named z3')\n")
+    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", "prove", "sbs.ctrl1"],
+                          capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "PYTHONPATH": str(tmp_path)})
+    assert proc.returncode == 2
+    assert "z3 is not installed: pip install z3-solver" in proc.stderr
+    assert "Traceback" not in proc.stderr

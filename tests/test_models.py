@@ -1,0 +1,89 @@
+import pytest
+
+from certiloop.models import (
+    INT,
+    And,
+    Array,
+    Int,
+    ModelError,
+    Real,
+    Reals,
+    Theorem,
+    assign,
+    havoc,
+    loop,
+    ode,
+    seq,
+)
+from certiloop.models import test as guard
+from certiloop.models.programs import written
+from certiloop.models.sbs import ctrl1
+
+x, y, G, D = Reals("x y G D")
+
+
+def theorem(program, assumptions=True, guarantee=None, **kw):
+    return Theorem("t", assumptions, program, guarantee if guarantee is not None else x >= 0, **kw)
+
+
+def test_ode_rejects_the_same_variable_twice():
+    with pytest.raises(ModelError, match="x' twice"):
+        ode([(x, 1), (x, 2)])
+
+
+def test_assigning_to_a_declared_constant_is_rejected():
+    with pytest.raises(ModelError, match="`G` is declared constant"):
+        theorem(seq(assign(G, 1), assign(x, G)), G > 0, constants=(G,))
+
+
+def test_unknown_symbol_in_guarantee_is_rejected():
+    with pytest.raises(ModelError, match="unknown symbol `zz`"):
+        theorem(assign(x, 1), guarantee=Real("zz") >= 0)
+
+
+def test_division_by_a_variable_without_guard_is_rejected():
+    with pytest.raises(ModelError, match=r"division by `y`"):
+        theorem(assign(x, 1 / y))
+
+
+def test_division_by_a_guarded_constant_is_accepted_and_a_written_one_is_not():
+    theorem(assign(x, 1 / (2 * G)), G > 0)
+    with pytest.raises(ModelError, match="division by `G`"):
+        theorem(seq(havoc(G), assign(x, 1 / G)), G > 0)
+
+
+def test_sort_mismatch_in_assignment():
+    k = Int("k")
+    with pytest.raises(ModelError, match="real term"):
+        assign(k, x)
+    P = Array("P", INT, INT)
+    with pytest.raises(ModelError, match="whole array"):
+        assign(P, 1)
+
+
+def test_ctrl1_is_table_1():
+    t = ctrl1()
+    text = t.text
+    for mode in ("free zone", "slow zone, towards", "slow zone, away", "past boundary, towards",
+                 "past boundary, away"):
+        assert mode in text
+    assert "py' = G*py/D*fy" in text
+    assert set(written(t.program)) == {"fxp", "fyp", "px", "py", "fx", "fy"}
+
+
+def test_content_hash_is_stable_and_sensitive():
+    assert ctrl1().content_hash == ctrl1().content_hash
+    other = theorem(loop(assign(x, x + 1), x >= 0), x >= 0)
+    changed = theorem(loop(assign(x, x + 2), x >= 0), x >= 0)
+    assert other.content_hash != changed.content_hash
+
+
+def test_expected_verdict_is_validated():
+    with pytest.raises(ModelError, match="expected must be"):
+        theorem(assign(x, 1), expected="safe")
+
+
+def test_tests_must_be_formulas():
+    with pytest.raises(ModelError, match="expected a formula"):
+        guard(x + 1)
+    assert And(x > 0, y > 0).op == "and"

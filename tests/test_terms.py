@@ -1,0 +1,96 @@
+from fractions import Fraction
+
+import pytest
+
+from certiloop.models import (
+    INT,
+    And,
+    Array,
+    Exists,
+    Family,
+    ForAll,
+    Implies,
+    IndexSort,
+    Int,
+    ModelError,
+    Not,
+    Real,
+    Reals,
+    dot,
+)
+from certiloop.models.terms import free_vars, substitute
+
+x, y, z = Reals("x y z")
+
+
+def test_operators_build_terms_and_formulas():
+    f = 2 * x + y / 3 - z**2 >= 0
+    assert f.op == "cmp" and f.payload == ">="
+    assert str(f) == "2*x + y/3 - z^2 >= 0"
+    assert str(-(x + y) * z) == "-(x + y)*z"
+
+
+def test_formula_refuses_bool_and_explains_chained_comparisons():
+    with pytest.raises(ModelError, match="chained comparisons"):
+        bool(x <= y)
+    with pytest.raises(ModelError, match="chained"):
+        0 <= x <= 1  # noqa: B015 - this is the mistake we want caught
+
+
+def test_float_literals_mean_their_decimal_text():
+    assert (x + 0.1).args[1].payload == Fraction(1, 10)
+
+
+def test_structural_identity_via_key_not_eq():
+    assert (x + 1).same(x + 1)
+    assert not (x + 1).same(1 + x)
+    assert (x == y).op == "cmp"  # == builds a formula
+
+
+def test_connectives_simplify_trivial_cases():
+    assert str(And(x > 0, True)) == "x > 0"
+    assert And(x > 0, False).op == "false"
+    assert Implies(False, x > 0).op == "true"
+    assert str(Not(x > 0)) == "!x > 0"
+
+
+def test_families_and_arrays():
+    B = IndexSort("B")
+    i = Real("i")  # wrong sort for an index
+    n = Family("n", B)
+    with pytest.raises(ModelError, match="sort Real, expected B"):
+        n(i)
+    from certiloop.models.terms import Var
+
+    j = Var("j", B)
+    assert n(j).sort.name == "Real"
+    P = Array("P", (INT, INT, INT), INT)
+    k, a, b = Int("k"), Int("a"), Int("b")
+    cell = P[k][a][b]
+    assert cell.sort == INT and str(cell) == "P[k][a][b]"
+    with pytest.raises(ModelError, match="takes 3"):
+        P[k, a, b, k]
+
+
+def test_substitution_avoids_capture():
+    f = ForAll(y, x < y)
+    g = substitute(f, {"x": y + 1})
+    (bound,) = g.payload
+    assert bound.name != "y"
+    assert "y" in free_vars(g)  # the substituted y stays free
+
+
+def test_free_vars_respect_binders():
+    f = And(Exists(y, x < y), z > 0)
+    assert set(free_vars(f)) == {"x", "z"}
+
+
+def test_dot_checks_lengths():
+    with pytest.raises(ModelError, match="length 2 and 3"):
+        dot([x, y], [x, y, z])
+    assert str(dot([x, y], [y, z])) == "x*y + y*z"
+
+
+def test_quantifying_over_a_term_is_rejected():
+    with pytest.raises(ModelError, match="plain symbol"):
+        ForAll(x + 1, x > 0)
