@@ -59,8 +59,8 @@ def _builtdr(row_bound, name: str, expected: str, description: str) -> Theorem:
 
 def builtdr() -> Theorem:
     """Algorithm 1's builtDR fills P[k][i][j] for every cell (Theorem 1 of seed 002)."""
-    return _builtdr(m, "cfmpa.builtdr", "proved",
-                    "builtDR records the collision predicate in every cell (Hoare triple, quantified invariants)")
+    return _builtdr(m, "cfmpa.builtdr", "proved", "builtDR records the collision predicate in every "
+                    "cell (Hoare triple, quantified invariants)")
 
 
 def builtdr_skips_last_row() -> Theorem:

@@ -84,6 +84,7 @@ class Havoc(Program):
 @dataclass(frozen=True, eq=False)
 class Test(Program):
     cond: Node
+    __test__ = False  # not a pytest test class
 
     @property
     def key(self):
@@ -190,7 +191,7 @@ def branch(label: str, *parts: Program) -> tuple[str, Program]:
 def choice(*alternatives: Program | tuple[str, Program]) -> Choice:
     progs: list[Program] = []
     labels: list[str] = []
-    for k, alt in enumerate(alternatives, 1):
+    for alt in alternatives:
         label, prog = alt if isinstance(alt, tuple) else (None, alt)
         if not isinstance(prog, Program):
             raise ModelError(f"expected a hybrid program in a choice, got {prog!r}")

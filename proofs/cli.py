@@ -186,8 +186,8 @@ def cmd_prove(args: argparse.Namespace) -> int:
                               TimeElapsedColumn(), console=err, transient=True) as bar:
                     task = bar.add_task(f"proving {theorem.name}", total=None)
                     result = prover.prove(theorem,
-                                          on_start=lambda n: bar.update(task, total=n),
-                                          on_result=lambda r: bar.advance(task), smtlib_dir=smt_dir)
+                                          on_start=lambda n, t=task: bar.update(t, total=n),
+                                          on_result=lambda r, t=task: bar.advance(t), smtlib_dir=smt_dir)
             else:
                 result = prover.prove(theorem, smtlib_dir=smt_dir)
             show_result(out, result, verbose=args.verbose)

@@ -11,8 +11,8 @@ the assumptions plus the nondeterministic choices and durations of a violating r
 from __future__ import annotations
 
 import time
-from fractions import Fraction
 from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any
 
 from certiloop.models.programs import ODE, Assign, Choice, Havoc, Program, Seq, Test, program_symbols

@@ -25,11 +25,11 @@ from typing import Callable
 
 from certiloop.models.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.terms import (
+    REAL,
     And,
     Implies,
-    Node,
-    REAL,
     ModelError,
+    Node,
     Var,
     store,
     substitute,

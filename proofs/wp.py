@@ -54,7 +54,8 @@ def expand_modalities(f: Node, names, positive: bool = False) -> Node:
     if f.op in ("and", "or"):
         return rebuild(f, tuple(expand_modalities(a, names, positive) for a in f.args))
     if f.op == "implies":
-        return rebuild(f, (expand_modalities(f.args[0], names), expand_modalities(f.args[1], names, positive)))
+        left, right = f.args
+        return rebuild(f, (expand_modalities(left, names), expand_modalities(right, names, positive)))
     return rebuild(f, tuple(expand_modalities(a, names) for a in f.args))
 
 

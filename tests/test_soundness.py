@@ -7,8 +7,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from certiloop.models import And, Reals, Theorem, assign, havoc, loop, ode, seq
-from certiloop.models import library
+from certiloop.models import And, Reals, Theorem, assign, havoc, library, loop, ode, seq
 from certiloop.models import test as guard
 from certiloop.models.programs import ODE, Choice, Loop, Seq, Test
 from certiloop.models.terms import cmp
@@ -143,7 +142,8 @@ def test_interval_arithmetic_encloses_exact_results(p, q, width, r):
 
 def test_algebraic_counterexamples_are_checked_with_intervals():
     # x*x = 2 has only irrational solutions: z3 answers with an algebraic number
-    (ob,) = generate(Theorem("sqrt2", True, seq(havoc(x), guard(x * x == 2), guard(x > 0)), x < Fraction(7, 5)))
+    program = seq(havoc(x), guard(x * x == 2), guard(x > 0))
+    (ob,) = generate(Theorem("sqrt2", True, program, x < Fraction(7, 5)))
     res = discharge_one(ob, 10, keep_model=True)
     assert res.verdict == "refuted" and res.check == "interval arithmetic"
     assert res.counterexample["x@1"].startswith("1.41421")
