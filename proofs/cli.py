@@ -101,6 +101,14 @@ def _main(argv: list[str] | None) -> int:
     raise BadInput(f"unknown command {args.command}")  # pragma: no cover
 
 
+def console(stderr: bool = False):
+    """A rich console; when piped, wide enough that tables do not fold model names."""
+    from rich.console import Console
+
+    probe = Console(stderr=stderr)
+    return probe if probe.is_terminal else Console(stderr=stderr, width=140)
+
+
 def cmd_list() -> int:
     from rich.console import Console
     from rich.table import Table
@@ -114,7 +122,7 @@ def cmd_list() -> int:
     for name in library.names():
         t = library.get(name)
         table.add_row(name, t.expected, t.description)
-    Console().print(table)
+    console().print(table)
     return EXIT_OK
 
 
@@ -137,7 +145,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
     from certiloop.proofs.report import verdict_text
 
     theorems = [load(spec) for spec in (args.models or library.names())]
-    out, err = Console(), Console(stderr=True)
+    out, err = console(), Console(stderr=True)
     with Prover(jobs=args.jobs, timeout_s=args.timeout) as prover:
         if err.is_terminal:
             with err.status("gate") as status:
@@ -175,7 +183,7 @@ def cmd_prove(args: argparse.Namespace) -> int:
     from certiloop.proofs.engine import Prover
     from certiloop.proofs.report import show_result
 
-    out = Console(stderr=args.json == "-")
+    out = console(stderr=args.json == "-")
     err = Console(stderr=True)
     results = []
     with Prover(jobs=args.jobs, timeout_s=args.timeout) as prover:
