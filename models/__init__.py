@@ -14,6 +14,7 @@ from .programs import (
     branch,
     choice,
     for_range,
+    foreach,
     havoc,
     if_,
     loop,

@@ -7,16 +7,19 @@ engine and the interpreter only ever see the core constructs.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Callable
 
 from .terms import (
     BOOL,
     INT,
     TRUE,
     And,
+    ForAll,
+    Implies,
     ModelError,
     Node,
     Not,
+    Var,
     formula,
     free_vars,
     term,
@@ -167,6 +170,9 @@ def assign(target: Node, value: Any) -> Assign:
 
 
 def havoc(target: Node) -> Havoc:
+    """x := *, a[i] := *, or a := * for a whole array or family (every entry arbitrary)."""
+    if isinstance(target, Node) and target.op == "var" and target.sort.is_array:
+        return Havoc(target)
     return Havoc(_check_target(target))
 
 
@@ -260,6 +266,34 @@ def for_range(var: Node, lo: Any, hi: Any, body: Program, invariant: Any,
     inv = And(lo <= var, var <= hi, formula(invariant))
     step = seq(test(var < hi), body, assign(var, var + 1))
     return seq(assign(var, lo), loop(step, inv, label or f"for {var.name}"), test(var >= hi))
+
+
+def foreach(index: Node, done: Node, body: Program, invariant: Any,
+            where: Callable[[Node], Node] | None = None, label: str | None = None) -> Program:
+    """Run `body` once for every element `index` of a finite family (in any order).
+
+    `done` is a Bool family over the index sort that the invariant may mention: it marks
+    the elements processed so far. `where(j)` restricts the family (e.g. active boundaries).
+    Expands to
+        done := *; ?∀j ¬done(j);
+        (index := *; ?¬done(index) ∧ where(index); body; done(index) := true)*  {invariant}
+        ?∀j (where(j) -> done(j))
+    The proof never needs the family's size: the invariant is quantified over it.
+    """
+    if index.op != "var" or index.sort.is_array or index.sort.is_numeric or index.sort == BOOL:
+        raise ModelError(f"foreach needs a symbol of an index sort, got `{index}`")
+    if done.op != "var" or done.sort.domain != (index.sort,) or done.sort.range != BOOL:
+        raise ModelError(f"foreach: `{done}` must be a Bool family over {index.sort}")
+    other = Var(f"{index.name}_", index.sort)
+    member = where or (lambda _j: TRUE)
+    step = seq(havoc(index), test(And(Not(done(index)), member(index))), body,
+               assign(done(index), TRUE))
+    return seq(
+        havoc(done),
+        test(ForAll(other, Not(done(other)))),
+        loop(step, invariant, label or f"foreach {index.name}"),
+        test(ForAll(other, Implies(member(other), done(other)))),
+    )
 
 
 # --------------------------------------------------------------------------- static semantics

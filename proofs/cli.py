@@ -110,7 +110,6 @@ def console(stderr: bool = False):
 
 
 def cmd_list() -> int:
-    from rich.console import Console
     from rich.table import Table
 
     from certiloop.models import library

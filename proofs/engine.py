@@ -13,6 +13,7 @@ from typing import Any, Callable
 from certiloop.models.theorem import Theorem
 
 from .abstraction import abstract
+from .instantiate import instantiate
 from .smt import check_valid, smtlib_text
 from .vcgen import Obligation, generate
 from .verdicts import ObligationResult, judge
@@ -52,18 +53,31 @@ def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) ->
     always comes from the obligation as stated. keep_model keeps the raw solver model,
     which may hold live z3 handles and so cannot leave this process."""
     start = time.perf_counter()
-    abstracted = abstract(ob.formula, ob.abbreviations)
-    if abstracted is not None:
-        answer = check_valid(abstracted, timeout_s)
+    for backend, weaker in _weakenings(ob):
+        answer = check_valid(weaker, timeout_s)
         if answer.status == "unsat":
-            res = judge(ob.id, ob.path, abstracted, answer, time.perf_counter() - start)
-            res.backend = "z3 (abstracted)"
+            res = judge(ob.id, ob.path, weaker, answer, time.perf_counter() - start)
+            res.backend = backend
             return res
     answer = check_valid(ob.formula, timeout_s)
     res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
     if not keep_model:
         res.raw_model = None
     return res
+
+
+def _weakenings(ob: Obligation):
+    """Formulas that imply the obligation and are easier for z3: instantiated quantifiers,
+    then projected (abstracted) arithmetic. Only an `unsat` (proved) answer is used."""
+    base = ob.formula
+    instantiated = instantiate(base)
+    if instantiated is not None:
+        base = instantiated
+    abstracted = abstract(base, ob.abbreviations)
+    if abstracted is not None:
+        yield ("z3 (instantiated, abstracted)" if instantiated is not None else "z3 (abstracted)"), abstracted
+    if instantiated is not None:
+        yield "z3 (instantiated)", instantiated
 
 
 def _refute_task(theorem: Theorem, timeout_s: float):

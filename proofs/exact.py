@@ -116,6 +116,8 @@ def _bounded_quantifier(n: Node, state: dict[str, Any]) -> bool | None:
     """∀/∃ over integers whose guard bounds every variable: decide by enumeration."""
     variables = n.payload
     body = n.args[0]
+    if all(f"#universe:{v.sort.name}" in state for v in variables):
+        return _finite_quantifier(n, state)
     if any(v.sort != INT for v in variables):
         raise Undecided(f"cannot evaluate `{n}` exactly (quantifier over a non-integer sort)")
     guard_op = "implies" if n.op == "forall" else "and"
@@ -136,6 +138,20 @@ def _bounded_quantifier(n: Node, state: dict[str, Any]) -> bool | None:
     for combo in itertools.product(*ranges):
         inner = dict(state, **{v.payload: x for v, x in zip(variables, combo)})
         val = evaluate(body, inner)
+        if val is None:
+            undecided = True
+        elif (val is False) == (n.op == "forall"):
+            return n.op == "exists"
+    return None if undecided else n.op == "forall"
+
+
+def _finite_quantifier(n: Node, state: dict[str, Any]) -> bool | None:
+    """∀/∃ over index sorts, enumerating the model's finite universe of each."""
+    pools = [state[f"#universe:{v.sort.name}"] for v in n.payload]
+    undecided = False
+    for combo in itertools.product(*pools):
+        inner = dict(state, **{v.payload: x for v, x in zip(n.payload, combo)})
+        val = evaluate(n.args[0], inner)
         if val is None:
             undecided = True
         elif (val is False) == (n.op == "forall"):

@@ -16,7 +16,7 @@ from fractions import Fraction
 from typing import Any
 
 from certiloop.models.programs import ODE, Assign, Choice, Havoc, Program, Seq, Test, program_symbols
-from certiloop.models.terms import BOOL, Implies, Var, substitute
+from certiloop.models.terms import BOOL, And, Implies, Var, substitute
 from certiloop.models.theorem import Theorem
 
 from .exact import evaluate, index_value, truth
@@ -25,7 +25,8 @@ from .odes import holds_along
 from .smt import ArrayValue, check_valid
 from .vcgen import Names
 from .verdicts import judge, readable
-from .wp import box, expand_modalities, flow_solution, unroll
+from .bmc import Encoder
+from .wp import expand_modalities, flow_solution, unroll
 
 
 @dataclass
@@ -64,9 +65,10 @@ def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
         pre = expand_modalities(theorem.assumptions, names)
         post = expand_modalities(theorem.guarantee, names)
         program = unroll(theorem.program, depth)
-        record: dict[int, str] = {}
-        claim = Implies(pre, box(program, post, names, quantify=False, unsolvable="drop",
-                                 record=record))
+        encoder = Encoder(names)
+        run, final = encoder.run(program, {})
+        claim = Implies(And(pre, *run), substitute(post, final))
+        record = encoder.record
         left = max(0.5, timeout_s - (time.perf_counter() - start))
         answer = check_valid(claim, left)
         if answer.status == "unknown":
@@ -111,7 +113,7 @@ class Replay:
         return steps if truth(self.post, state) is False else None
 
     def _show(self, state) -> dict[str, str]:
-        return readable({k: v for k, v in state.items() if "@" not in k})
+        return readable({k: v for k, v in state.items() if "@" not in k and not k.startswith("#")})
 
     def _exec(self, p: Program, state, path, steps, k):
         if isinstance(p, Assign):

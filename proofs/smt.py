@@ -271,7 +271,13 @@ def _z3_index(x: Any, sort: z3.SortRef) -> z3.ExprRef:
 
 
 def read_model(model: z3.ModelRef, tr: Z3Translator) -> dict[str, Any]:
+    """Values by symbol name; `#universe:S` lists the elements of each index sort S (a z3
+    model interprets an uninterpreted sort as a finite set, so ∀ over it can be checked)."""
     out: dict[str, Any] = {}
+    for name, sort in tr.sorts.items():
+        universe = model.get_universe(sort)
+        if universe is not None:
+            out[f"#universe:{name}"] = [str(e) for e in universe]
     for name, sym in tr.symbols.items():
         val = model.eval(sym, model_completion=True)
         out[name] = _value(val, model)

@@ -48,7 +48,8 @@ def _exactness(model: dict[str, Any]) -> str:
 
 
 def readable(model: dict[str, Any]) -> dict[str, str]:
-    return {name: show_value(v) for name, v in sorted(model.items(), key=lambda kv: _order(kv[0]))}
+    shown = {k: v for k, v in model.items() if not k.startswith("#")}
+    return {name: show_value(v) for name, v in sorted(shown.items(), key=lambda kv: _order(kv[0]))}
 
 
 def _order(name: str) -> tuple:
