@@ -63,7 +63,7 @@ def show(n: Node, outer: int = 0) -> str:
     elif op == "or":
         s = " | ".join(show(a, prec + 1) for a in n.args)
     elif op == "not":
-        s = "!" + show(n.args[0], prec + 1)
+        s = "!" + show(n.args[0], _PREC["cmp"] + 1)
     elif op == "implies":
         s = f"{show(n.args[0], prec + 1)} -> {show(n.args[1], prec)}"
     elif op == "iff":

@@ -7,8 +7,10 @@ x-axis and the safe side is py >= 0.
 
 from __future__ import annotations
 
-from .programs import branch, choice, havoc, loop, ode, seq
-from .terms import And, Reals
+from fractions import Fraction
+
+from .programs import Program, assign, branch, choice, havoc, loop, ode, seq, test
+from .terms import And, Iff, Or, Real, Reals
 from .theorem import Theorem
 
 px, py, fx, fy, fxp, fyp, G, D = Reals("px py fx fy fxp fyp G D")
@@ -59,3 +61,209 @@ def ctrl1_broken() -> Theorem:
         constants=(G, D),
         description="ctrl1 with a past-boundary mode that lets the tool keep moving inward",
     )
+
+
+# =========================================================================== Table 2: ctrl2
+#
+# Transcription notes (the published table has typesetting errors; checked against the
+# authors' KeYmaeraD file medrobot_nfix3d.dl):
+#  * `?u(i)1 = 1` reads u(i)*1 = 1, i.e. u(i) = 1; `?u(i)d = d0(i)` reads u(i)*D = d0(i),
+#    i.e. u(i) = d0(i)/D; `?u(i)1 = 0` reads u(i) = 0. Lower-case `d` in the first guard
+#    is the slow-zone thickness D.
+#  * `(3 ≥ 3)` is just true.
+#  * `tmp := *; ?tmp*G*X = 1; kt := -d0*tmp` is the paper's division kt = -d0/(G X); we keep
+#    it, so a division by zero simply blocks that branch, exactly as in the paper.
+#  * The paper's list traversal `i := first; (?i ≠ end; ...; i := next(i))*; ?i = end` over
+#    an injective `next` visits every boundary once; `foreach` does the same with a `done`
+#    family, which makes the per-boundary induction a quantified invariant over the family.
+#  * `xtr` appears without its index in two guards of the KeYmaeraD file; Table 2 writes
+#    xtr(i) everywhere, which we follow.
+
+from .programs import foreach  # noqa: E402
+from .terms import BOOL, Family, ForAll, Implies, IndexSort, Var, dot  # noqa: E402
+
+B = IndexSort("B")
+
+
+class Ctrl2Symbols:
+    """The symbols of Table 2 for a given dimension (2 or 3)."""
+
+    def __init__(self, dim: int) -> None:
+        axes = "xyz"[:dim]
+        self.dim = dim
+        self.p = Reals(" ".join(f"p{a}" for a in axes))
+        self.f = Reals(" ".join(f"f{a}" for a in axes))
+        self.fp = Reals(" ".join(f"f{a}p" for a in axes))
+        self.n = [Family(f"n{a}", B) for a in axes]
+        self.r = [Family(f"r{a}", B) for a in axes]
+        self.G, self.e, self.D, self.k, self.kt, self.tmp, self.t = Reals("G e D k kt tmp t")
+        self.i, self.j = Var("i", B), Var("j", B)
+        self.done = Family("done", B, BOOL)
+        self.active = Family("active", B, BOOL)
+        for name in ("xtr", "u", "d0", "fn", "fnp", "dist", "disc"):
+            setattr(self, name, Family(name, B))
+
+    # projected quantities of boundary j, from the state (the paper's d0, fn, fnp)
+    def dist0(self, j):
+        return dot([pc - rc(j) for pc, rc in zip(self.p, self.r)], [nc(j) for nc in self.n])
+
+    def fnormal(self, j):
+        return dot(self.f, [nc(j) for nc in self.n])
+
+    def fpnormal(self, j):
+        return dot(self.fp, [nc(j) for nc in self.n])
+
+    def safe(self, j):
+        return self.dist0(j) >= 0
+
+    def safe_for_step(self, j, k):
+        """Boundary j stays safe for a whole step of at most e under gain k:
+        ∀t∈[0,e]. d0 + G k (fn t + fnp t²/2) >= 0  (Eqn 9 with multiplicative k)."""
+        t = Real("t_")
+        d = self.dist0(j) + self.G * k * (self.fnormal(j) * t + self.fpnormal(j) * t**2 / 2)
+        return ForAll(t, Implies(And(0 <= t, t <= self.e), d >= 0))
+
+    def unit_normals(self):
+        return ForAll(self.j, dot([nc(self.j) for nc in self.n], [nc(self.j) for nc in self.n]) == 1)
+
+    def abbreviations(self):
+        j = Var("b_", B)
+        return {"d0": self.dist0(j), "fn": self.fnormal(j), "fnp": self.fpnormal(j)}
+
+
+def force_feedback(s: Ctrl2Symbols, i) -> Program:
+    """Table 2's force-feedback section: ten cases computing the attenuation u(i)."""
+    d0, fn, fnp, xtr, u, D, e = s.d0(i), s.fn(i), s.fnp(i), s.xtr(i), s.u(i), s.D, s.e
+    one = lambda: seq(havoc(u), test(u * 1 == 1))  # noqa: E731
+    slow = lambda: seq(havoc(u), test(u * D == d0))  # noqa: E731
+    turn = xtr * fnp == -1 * fn
+    return choice(
+        branch("ff1 free (d0 >= D)", test(d0 >= D), one()),
+        branch("ff2 slow, fnp>=0 fn>=0", test(And(0 <= d0, d0 <= D, fnp >= 0, fn >= 0)), one()),
+        branch("ff3 slow, turns early", test(And(0 <= d0, d0 <= D, fnp > 0, fn <= 0, turn, xtr <= e / 2)),
+               one()),
+        branch("ff4 slow, turns late", test(And(0 <= d0, d0 <= D, fnp > 0, fn <= 0, turn, xtr >= e / 2)),
+               slow()),
+        branch("ff5 slow, fnp=0 fn<=0", test(And(0 <= d0, d0 <= D, fnp == 0, fn <= 0)), slow()),
+        branch("ff6 slow, reverses early", test(And(0 <= d0, d0 <= D, fnp < 0, fn >= 0, turn,
+                                                    xtr <= e / 2)), slow()),
+        branch("ff7 slow, reverses late", test(And(0 <= d0, d0 <= D, fnp < 0, fn >= 0, turn,
+                                                   xtr >= e / 2)), one()),
+        branch("ff8 slow, fnp=0 fn>=0", test(And(0 <= d0, d0 <= D, fnp == 0, fn >= 0)), one()),
+        branch("ff9 slow, fnp<=0 fn<=0", test(And(0 <= d0, d0 <= D, fnp <= 0, fn <= 0)), slow()),
+        branch("ff10 stuck (d0 <= 0)", test(d0 <= 0), seq(havoc(u), test(u * 1 == 0))),
+    )
+
+
+def safety(s: Ctrl2Symbols, i, kt_formula=None) -> Program:
+    """Table 2's safety section: seven cases (Fig. 5) computing the safe gain kt."""
+    d0, fn, fnp, u, G, e = s.d0(i), s.fn(i), s.fnp(i), s.u(i), s.G, s.e
+    dist, disc, tmp, kt = s.dist(i), s.disc(i), s.tmp, s.kt
+    reach = fn * e + fnp * e**2 / 2 if kt_formula is None else kt_formula(s, i)
+    keep_u = lambda: seq(havoc(tmp), test(tmp * G == 1), assign(kt, u))  # noqa: E731
+    hit_at_end = lambda: seq(havoc(tmp), test(tmp * G * reach == 1), assign(kt, -1 * d0 * tmp))  # noqa: E731
+    return choice(
+        branch("sa fnp<=0, clear", test(And(fnp <= 0, dist >= 0)), keep_u()),
+        branch("se fnp<=0, would cross", test(And(fnp <= 0, dist <= 0)), hit_at_end()),
+        branch("sb turns back, disc<=0", test(And(fnp >= 0, fn <= 0, disc <= 0)), keep_u()),
+        branch("sf turns within step", test(And(fnp >= 0, fn <= 0, disc >= 0, fn + fnp * e >= 0)),
+               seq(havoc(tmp), test(tmp * G * fn**2 == 1), assign(kt, 2 * fnp * d0 * tmp))),
+        branch("sg still inward, would cross", test(And(fnp >= 0, fn <= 0, disc >= 0, fn + fnp * e <= 0,
+                                                         dist <= 0)), hit_at_end()),
+        branch("sc still inward, clear", test(And(fnp >= 0, fn <= 0, disc >= 0, fn + fnp * e <= 0,
+                                                  dist >= 0)), keep_u()),
+        branch("sd away", test(And(fnp >= 0, fn >= 0)), keep_u()),
+    )
+
+
+def boundary_step(s: Ctrl2Symbols, i, kt_formula=None, combine=None) -> Program:
+    """One inner-loop iteration of Table 2 for boundary i."""
+    G, e = s.G, s.e
+    return seq(
+        havoc(s.xtr(i)),
+        assign(s.u(i), 1),
+        assign(s.d0(i), s.dist0(i)),
+        assign(s.fnp(i), s.fpnormal(i)),
+        assign(s.fn(i), s.fnormal(i)),
+        force_feedback(s, i),
+        assign(s.dist(i), s.d0(i) + G * s.u(i) * (s.fn(i) * e + s.fnp(i) * e**2 * Fraction(1, 2))),
+        assign(s.disc(i), (G * s.u(i) * s.fn(i))**2 - 2 * G * s.u(i) * s.fnp(i) * s.d0(i)),
+        safety(s, i, kt_formula),
+        combine(s) if combine is not None else choice(
+            branch("kt >= k: keep k", test(s.kt >= s.k), assign(s.k, s.k)),
+            branch("kt < k: k := kt", test(s.kt < s.k), assign(s.k, s.kt)),
+        ),
+    )
+
+
+def _ctrl2(name: str, dim: int, expected: str, description: str, kt_formula=None, combine=None,
+           dynamic: bool = False) -> Theorem:
+    s = Ctrl2Symbols(dim)
+    j = s.j
+    member = (lambda b: s.active(b)) if dynamic else None
+    guarded = (lambda b, f: Implies(s.active(b), f)) if dynamic else (lambda b, f: f)
+    inner_inv = And(0 <= s.k, s.k <= 1,
+                    ForAll(j, Implies(s.done(j), s.safe_for_step(j, s.k))))
+    inner = foreach(s.i, s.done, boundary_step(s, s.i, kt_formula, combine), inner_inv,
+                    where=member, label="boundary loop")
+    plant = ode({**{pc: s.G * fc * s.k for pc, fc in zip(s.p, s.f)},
+                 **{fc: fpc for fc, fpc in zip(s.f, s.fp)}, s.t: 1}, s.t <= s.e)
+    safe_all = ForAll(j, guarded(j, s.safe(j)))
+    step = [*(havoc(c) for c in s.fp)]
+    if dynamic:
+        # section 7: any boundary may be removed; a new one joins only on its safe side
+        new_active = Family("active_next", B, BOOL)
+        step += [havoc(new_active),
+                 test(ForAll(j, Implies(new_active(j), Or(s.active(j), s.safe(j))))),
+                 _copy_family(s.active, new_active, j)]
+    step += [assign(s.k, 1), inner, assign(s.t, 0), plant]
+    return Theorem(
+        name=name,
+        assumptions=And(s.G > 0, s.e > 0, s.D > 0, s.unit_normals(), safe_all),
+        program=loop(seq(*step), invariant=safe_all, label="control loop"),
+        guarantee=safe_all,
+        expected=expected,
+        abbreviations=s.abbreviations(),
+        constants=(s.G, s.e, s.D),
+        description=description,
+        unroll=2,
+    )
+
+
+def _copy_family(target, source, j):
+    """target := source for a whole Bool family, as havoc + pointwise test."""
+    return seq(havoc(target), test(ForAll(j, Iff(target(j), source(j)))))
+
+
+def ctrl2() -> Theorem:
+    """Table 2 and Theorem 2: any finite number of arbitrarily placed and oriented
+    boundaries in three dimensions stay safe."""
+    return _ctrl2("sbs.ctrl2", 3, "proved",
+                  "Table 2 / Theorem 2: ctrl2, 3D, any finite family of boundaries")
+
+
+def ctrl2_2d() -> Theorem:
+    """Table 2 in two dimensions (the paper's medrobot_nfix2d)."""
+    return _ctrl2("sbs.ctrl2_2d", 2, "proved", "Table 2 in 2D, any finite family of boundaries")
+
+
+def ctrl2_dynamic() -> Theorem:
+    """Section 7's future work: boundaries may be removed at any step and added at the start
+    of a step when the tool is on their safe side."""
+    return _ctrl2("sbs.ctrl2_dynamic", 3, "proved",
+                  "section 7: boundaries removed any time, added when the tool is on their safe side",
+                  dynamic=True)
+
+
+def ctrl2_wrong_k() -> Theorem:
+    """Mutant: safety cases e/g divide by fn e + fnp e²/4 instead of fn e + fnp e²/2, so the
+    damping computed for an inward-accelerating tool is too weak."""
+    return _ctrl2("sbs.ctrl2_wrong_k", 3, "refuted", "ctrl2 mutant: wrong k formula in safety cases e/g",
+                  kt_formula=lambda s, i: s.fn(i) * s.e + s.fnp(i) * s.e**2 / 4)
+
+
+def ctrl2_last_wins() -> Theorem:
+    """Mutant: k := kt for every boundary instead of the minimum, so the last boundary
+    processed decides the gain for all of them."""
+    return _ctrl2("sbs.ctrl2_last_wins", 3, "refuted", "ctrl2 mutant: min replaced by the last boundary's kt",
+                  combine=lambda s: assign(s.k, s.kt))

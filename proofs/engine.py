@@ -12,7 +12,8 @@ from typing import Any, Callable
 
 from certiloop.models.theorem import Theorem
 
-from .abstraction import abstract
+from .abstraction import abbreviation_instances, abstract, congruences, lower_term
+from .lowering import lower
 from .instantiate import instantiate
 from .smt import check_valid, smtlib_text
 from .vcgen import Obligation, generate
@@ -69,15 +70,26 @@ def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) ->
 def _weakenings(ob: Obligation):
     """Formulas that imply the obligation and are easier for z3: instantiated quantifiers,
     then projected (abstracted) arithmetic. Only an `unsat` (proved) answer is used."""
-    base = ob.formula
+    base, steps = ob.formula, []
     instantiated = instantiate(base)
     if instantiated is not None:
-        base = instantiated
-    abstracted = abstract(base, ob.abbreviations)
+        base, steps = instantiated, ["instantiated"]
+    lowered = lower(base) if _has_arrays(base) else None
+    instances = abbreviation_instances(ob.abbreviations, base)
+    index_term = lambda t: t  # noqa: E731
+    if lowered is not None:
+        base, steps = lowered, steps + ["lowered"]
+        instances = [i.with_definition(lower_term(i.definition)) for i in instances]
+        index_term = lower_term
+    abstracted = abstract(base, instances, congruences(instances, index_term))
     if abstracted is not None:
-        yield ("z3 (instantiated, abstracted)" if instantiated is not None else "z3 (abstracted)"), abstracted
-    if instantiated is not None:
-        yield "z3 (instantiated)", instantiated
+        yield f"z3 ({', '.join(steps + ['abstracted'])})", abstracted
+    if steps:
+        yield f"z3 ({', '.join(steps)})", base
+
+
+def _has_arrays(n) -> bool:
+    return n.op in ("select", "store") or any(_has_arrays(a) for a in n.args)
 
 
 def _refute_task(theorem: Theorem, timeout_s: float):

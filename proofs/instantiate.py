@@ -5,7 +5,7 @@ fresh constant c (skolemisation). A hypothesis `∀j ψ(j)` may be replaced by a
 instances `ψ(t)` (weakening), so the quantifier-free result, if valid, proves the original.
 Instances use, per bound variable, the goal's skolem constants of its sort and, for index
 and integer sorts, every symbol of that sort in the obligation (e.g. the boundary being
-processed). This is how per-boundary reasoning about "every boundary processed so far"
+processed); real variables also take the real symbols of the goal (e.g. a flow's duration). This is how per-boundary reasoning about "every boundary processed so far"
 reaches nlsat without quantifiers.
 """
 
@@ -93,6 +93,7 @@ def instantiate(formula: Node) -> Node | None:
     hyps: list[Node] = []
     goal = _split_goal(formula, hyps, sk)
     ground = free_vars(And(*hyps, goal))
+    in_goal = [g for g in free_vars(goal).values() if g.sort == REAL and "@sk" not in g.payload]
     out: list[Node] = []
     for h in hyps:
         variables, body = _prenex(h)
@@ -103,7 +104,9 @@ def instantiate(formula: Node) -> Node | None:
         pools = []
         for v in variables:
             pool = [c for c in sk.constants if c.sort == v.sort]
-            if v.sort not in (REAL,) and not v.sort.is_array:
+            if v.sort == REAL:  # e.g. the duration of a flow, at which a "whole step" fact is needed
+                pool += in_goal[:8]
+            elif not v.sort.is_array:
                 pool += [g for g in ground.values() if g.sort == v.sort and "@sk" not in g.payload]
                 if v.sort == INT:
                     pool = pool[:12]
