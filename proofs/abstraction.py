@@ -15,12 +15,26 @@ from __future__ import annotations
 
 import itertools
 from dataclasses import dataclass
+from fractions import Fraction
 
-import sympy
+from sympy import QQ
+from sympy.polys.orderings import lex
+from sympy.polys.rings import ring
 
-from certiloop.models.terms import REAL, And, Implies, Node, Var, cmp, free_vars, rebuild, substitute
-
-from .symbolic import SympyTable, from_sympy, to_sympy
+from certiloop.models.terms import (
+    REAL,
+    And,
+    Implies,
+    Node,
+    Var,
+    add,
+    cmp,
+    const,
+    free_vars,
+    mul,
+    rebuild,
+    substitute,
+)
 
 MAX_INSTANCES = 16
 
@@ -60,12 +74,29 @@ def abbreviation_instances(abbrevs: dict[str, Node], formula: Node) -> list[Inst
         if not pools:
             continue
         names = sorted(syms)
-        for combo in itertools.islice(itertools.product(*pools), MAX_INSTANCES):
+        combos = (c for c in itertools.product(*pools) if _consistent(dict(zip(names, c)), versions))
+        for combo in itertools.islice(combos, MAX_INSTANCES):
             env = dict(zip(names, combo))
             family = (name, tuple(env[n].payload for n in names if n not in params))
             out.append(Instance(Var(f"{name}@abs{len(out)}"), substitute(definition, env),
                                 family, tuple(env[p] for p in params)))
     return out
+
+
+def _suffix(sym: Node) -> str:
+    return sym.payload.partition("@")[2]
+
+
+def _consistent(env: dict[str, Node], versions: dict[str, list[Node]]) -> bool:
+    """Symbols of one state go together: if x takes version @N and y has a version @N,
+    y must take it too (p@7 with f@7, not p@7 with the initial f)."""
+    chosen = {_suffix(v) for v in env.values() if _suffix(v)}
+    for name, v in env.items():
+        have = {_suffix(x) for x in versions.get(name, ())}
+        for n in chosen & have:
+            if _suffix(v) != n:
+                return False
+    return True
 
 
 @dataclass(frozen=True)
@@ -110,33 +141,44 @@ def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) 
     (true whenever the abbreviations equal their definitions) become hypotheses."""
     if not inst or _has_binder(formula):
         return None
-    table = SympyTable()
-    abbrev_syms = [table.symbol(i.symbol) for i in inst]
-    relations = [table.symbol(i.symbol) - sympy.expand(to_sympy(i.definition, table)) for i in inst]
-    defined = [rel.free_symbols - {a} for rel, a in zip(relations, abbrev_syms)]
-    eliminate = sorted({s for rel in relations for s in rel.free_symbols} - set(abbrev_syms), key=str)
+    poly = _Polys(formula, inst)
+    if poly.ring is None:
+        return None
+    relations = [poly.element(i.symbol) - poly.element(i.definition) for i in inst]
+    defined = [set(_syms(i.definition)) for i in inst]
+    by_definition = {i.definition.key: i.symbol for i in inst}
+    all_defined = set().union(*defined)
     changed = [False]
+
+    def replace(n: Node) -> Node:
+        hit = by_definition.get(n.key)
+        if hit is not None:
+            return hit
+        return rebuild(n, tuple(replace(a) for a in n.args)) if n.args else n
 
     def rewrite(n: Node) -> Node:
         if n.op == "cmp" and n.args[0].sort.is_numeric:
-            g = sympy.expand(to_sympy(n.args[0], table) - to_sympy(n.args[1], table))
-            if not (g.free_symbols & set(eliminate)):
+            # the definitions usually occur verbatim (substituted from the same template)
+            direct = replace(n)
+            if not direct.same(n) and not (set(_syms(direct)) & all_defined):
+                changed[0] = True
+                return direct
+            n = direct
+            try:
+                g = poly.element(n.args[0]) - poly.element(n.args[1])
+            except _NotPolynomial:
                 return n
+            atom_syms = set(_syms(n))
             # only instances built from this atom's own symbols (right SSA versions, right
             # boundary): two instances with one leading monomial would derail the division
-            mine = [k for k, syms in enumerate(defined) if syms <= g.free_symbols]
+            mine = [k for k, syms in enumerate(defined) if syms and syms <= atom_syms]
             if not mine:
                 return n
-            rels = [relations[k] for k in mine]
-            gens = sorted(set().union(*(defined[k] for k in mine)), key=str)
-            try:
-                _, rem = sympy.reduced(g, rels, *gens, *(abbrev_syms[k] for k in mine), order="lex")
-            except (sympy.PolynomialError, sympy.polys.polyerrors.PolificationFailed):
-                return n
-            if rem.free_symbols & set(gens):
+            rem = g.rem([relations[k] for k in mine])
+            if poly.mentions(rem, set().union(*(defined[k] for k in mine))):
                 return n
             changed[0] = True
-            return cmp(n.payload, from_sympy(sympy.expand(rem), table), 0)
+            return cmp(n.payload, poly.node(rem), 0)
         if n.op in ("and", "or", "not", "implies", "iff"):
             return rebuild(n, tuple(rewrite(a) for a in n.args))
         return n
@@ -145,6 +187,89 @@ def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) 
     if not changed[0]:
         return None
     return Implies(And(*extra_facts), out) if extra_facts else out
+
+
+class _NotPolynomial(Exception):
+    pass
+
+
+def _syms(n: Node) -> dict[str, Node]:
+    """Atomic arithmetic subterms (symbols and array reads) by their text."""
+    out: dict[str, Node] = {}
+
+    def walk(x: Node) -> None:
+        if x.op in ("var", "select"):
+            if x.sort.is_numeric:
+                out.setdefault(str(x), x)
+            return
+        for a in x.args:
+            walk(a)
+
+    walk(n)
+    return out
+
+
+class _Polys:
+    """One polynomial ring over QQ per obligation, lex order with the symbols the
+    abbreviations eliminate first, so division rewrites atoms towards the abbreviations."""
+
+    def __init__(self, formula: Node, inst: list[Instance]) -> None:
+        abbrevs = {str(i.symbol): i.symbol for i in inst}
+        defined: dict[str, Node] = {}
+        for i in inst:
+            defined.update(_syms(i.definition))
+        others = {k: v for k, v in _syms(formula).items() if k not in defined and k not in abbrevs}
+        order = sorted(defined) + sorted(others) + sorted(abbrevs)
+        self.index = {name: k for k, name in enumerate(order)}
+        self.atoms = {**defined, **others, **abbrevs}
+        self.order = order
+        if not order:
+            self.ring = None
+            return
+        self.ring, *self.gens = ring(",".join(f"v{k}" for k in range(len(order))), QQ, lex)
+
+    def element(self, n: Node):
+        op = n.op
+        if op == "const":
+            return self.ring(QQ(n.payload.numerator, n.payload.denominator))
+        if op in ("var", "select"):
+            k = self.index.get(str(n))
+            if k is None or not n.sort.is_numeric:
+                raise _NotPolynomial(str(n))
+            return self.gens[k]
+        if op == "+":
+            out = self.ring(0)
+            for a in n.args:
+                out += self.element(a)
+            return out
+        if op == "*":
+            out = self.ring(1)
+            for a in n.args:
+                out *= self.element(a)
+            return out
+        if op == "neg":
+            return -self.element(n.args[0])
+        if op == "^":
+            return self.element(n.args[0]) ** n.payload
+        if op == "/" and n.args[1].op == "const":
+            return self.element(n.args[0]) * QQ(n.args[1].payload.denominator, n.args[1].payload.numerator)
+        raise _NotPolynomial(str(n))
+
+    def mentions(self, p, names: set[str]) -> bool:
+        ks = [self.index[n] for n in names]
+        return any(monom[k] for monom in p.monoms() for k in ks)
+
+    def node(self, p) -> Node:
+        terms = []
+        for monom, coeff in p.terms():
+            c = Fraction(int(coeff.numerator), int(coeff.denominator))
+            factors = [] if c == 1 else [const(c)]
+            for k, power in enumerate(monom):
+                if power:
+                    atom = self.atoms[self.order[k]]
+                    factors.append(atom if power == 1 else atom**power)
+            terms.append(mul(*factors) if len(factors) > 1 else factors[0] if factors else const(1))
+        return add(*terms) if terms else const(0)
 
 
 def _has_binder(n: Node) -> bool:

@@ -13,8 +13,8 @@ from typing import Any, Callable
 from certiloop.models.theorem import Theorem
 
 from .abstraction import abbreviation_instances, abstract, congruences, lower_term
-from .lowering import lower
 from .instantiate import instantiate
+from .lowering import lower
 from .smt import check_valid, smtlib_text
 from .vcgen import Obligation, generate
 from .verdicts import ObligationResult, judge
@@ -70,10 +70,16 @@ def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) ->
 def _weakenings(ob: Obligation):
     """Formulas that imply the obligation and are easier for z3: instantiated quantifiers,
     then projected (abstracted) arithmetic. Only an `unsat` (proved) answer is used."""
+    yield from _weakened(ob, wide=False)
+    if instantiate(ob.formula) is not None:
+        yield from _weakened(ob, wide=True)
+
+
+def _weakened(ob: Obligation, wide: bool):
     base, steps = ob.formula, []
-    instantiated = instantiate(base)
+    instantiated = instantiate(base, wide)
     if instantiated is not None:
-        base, steps = instantiated, ["instantiated"]
+        base, steps = instantiated, ["instantiated more" if wide else "instantiated"]
     lowered = lower(base) if _has_arrays(base) else None
     instances = abbreviation_instances(ob.abbreviations, base)
     index_term = lambda t: t  # noqa: E731

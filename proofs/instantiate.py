@@ -85,7 +85,7 @@ def _prenex(h: Node) -> tuple[tuple[Node, ...], Node]:
     return (), h
 
 
-def instantiate(formula: Node) -> Node | None:
+def instantiate(formula: Node, wide: bool = False) -> Node | None:
     """A quantifier-free formula that implies `formula` (None: no quantifiers, or an ∃ goal)."""
     if not has_quantifier(formula):
         return None
@@ -104,8 +104,9 @@ def instantiate(formula: Node) -> Node | None:
         pools = []
         for v in variables:
             pool = [c for c in sk.constants if c.sort == v.sort]
-            if v.sort == REAL:  # e.g. the duration of a flow, at which a "whole step" fact is needed
-                pool += in_goal[:8]
+            if v.sort == REAL:
+                if wide:  # e.g. the duration of a flow, at which a "whole step" fact is needed
+                    pool += in_goal[:8]
             elif not v.sort.is_array:
                 pool += [g for g in ground.values() if g.sort == v.sort and "@sk" not in g.payload]
                 if v.sort == INT:

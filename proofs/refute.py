@@ -19,13 +19,13 @@ from certiloop.models.programs import ODE, Assign, Choice, Havoc, Program, Seq, 
 from certiloop.models.terms import BOOL, And, Implies, Var, substitute
 from certiloop.models.theorem import Theorem
 
+from .bmc import Encoder
 from .exact import evaluate, index_value, truth
 from .interval import show_value
 from .odes import holds_along
 from .smt import ArrayValue, check_valid
 from .vcgen import Names
 from .verdicts import judge, readable
-from .bmc import Encoder
 from .wp import expand_modalities, flow_solution, unroll
 
 

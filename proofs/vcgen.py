@@ -62,11 +62,15 @@ class Names:
         self.count = 0
         self.origin: dict[str, str] = {}  # fresh name -> what it stands for
 
-    def fresh(self, base: Node | str, sort=None, why: str = "") -> Node:
-        self.count += 1
+    def fresh(self, base: Node | str, sort=None, why: str = "", event: int | None = None) -> Node:
+        """A fresh symbol; symbols made by one event (one loop's or ODE's havoc) share its
+        number, so `px@7, py@7` are visibly the same state."""
+        if event is None:
+            self.count += 1
+            event = self.count
         root = base if isinstance(base, str) else base.payload
         root = root.split("@")[0]
-        name = f"{root}@{self.count}"
+        name = f"{root}@{event}"
         self.origin[name] = why or root
         if sort is None:
             sort = REAL if isinstance(base, str) else base.sort
@@ -119,7 +123,10 @@ class VCGen:
                                            self.theorem.abbreviations))
 
     def havoc(self, st: State, variables: dict[str, Node], why: str) -> State:
-        return st.bind({nm: self.names.fresh(v, why=f"{nm} {why}") for nm, v in variables.items()})
+        self.names.count += 1
+        event = self.names.count
+        return st.bind({nm: self.names.fresh(v, why=f"{nm} {why}", event=event)
+                        for nm, v in variables.items()})
 
     # ---- the rules
     def exec(self, p: Program, st: State, k: Callable[[State], None]) -> None:
