@@ -126,6 +126,14 @@ class Ctrl2Symbols:
     def unit_normals(self):
         return ForAll(self.j, dot([nc(self.j) for nc in self.n], [nc(self.j) for nc in self.n]) == 1)
 
+    def axis_aligned(self):
+        """Refutation scenario: every boundary passes through the origin with a normal along
+        +x or +y, so projected quantities are plain coordinates."""
+        j = self.j
+        n, r = self.n, self.r
+        along = lambda a: And(*(nc(j) == (1 if c == a else 0) for c, nc in enumerate(n)))  # noqa: E731
+        return ForAll(j, And(Or(along(0), along(1)), *(rc(j) == 0 for rc in r)))
+
     def abbreviations(self):
         j = Var("b_", B)
         return {"d0": self.dist0(j), "fn": self.fnormal(j), "fnp": self.fpnormal(j)}
@@ -227,6 +235,7 @@ def _ctrl2(name: str, dim: int, expected: str, description: str, kt_formula=None
         constants=(s.G, s.e, s.D),
         description=description,
         unroll=2,
+        scenarios=(And(s.G == 1, s.e == 1, s.D == 1, s.axis_aligned()), s.axis_aligned()),
     )
 
 

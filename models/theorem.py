@@ -47,12 +47,16 @@ class Theorem:
     description: str = ""
     unroll: int = 3  # loop iterations the refuter explores when a proof fails
     constants: tuple[Node, ...] = ()  # parameters the program must never write (G, D, ...)
+    # Extra assumptions the refuter tries first (e.g. axis-aligned boundaries): they only
+    # restrict the initial states searched, so a run found under them is a real run.
+    scenarios: tuple[Node, ...] = ()
 
     def __post_init__(self) -> None:
         if self.expected not in VERDICTS:
             raise ModelError(f"theorem {self.name}: expected must be one of {VERDICTS}")
         object.__setattr__(self, "assumptions", formula(self.assumptions))
         object.__setattr__(self, "guarantee", formula(self.guarantee))
+        object.__setattr__(self, "scenarios", tuple(formula(s) for s in self.scenarios))
         check_well_formed(self)
 
     @property

@@ -47,6 +47,12 @@ class TheoremResult:
         }
 
 
+PROJECTED_CEX_SECONDS = 2.0
+
+
+QUICK_SECONDS = 0.5  # per check once a violating run is known: the report, not the verdict
+
+
 def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) -> ObligationResult:
     """Prove one obligation: first in abstracted form (if that applies), then as stated.
 
@@ -54,14 +60,28 @@ def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) ->
     always comes from the obligation as stated. keep_model keeps the raw solver model,
     which may hold live z3 handles and so cannot leave this process."""
     start = time.perf_counter()
+    budget = timeout_s  # shrinks once a projected form has a counterexample
+    projected_cex = False
     for backend, weaker in _weakenings(ob):
-        answer = check_valid(weaker, timeout_s)
+        answer = check_valid(weaker, budget)
         if answer.status == "unsat":
             res = judge(ob.id, ob.path, weaker, answer, time.perf_counter() - start)
             res.backend = backend
             return res
-    answer = check_valid(ob.formula, timeout_s)
+        if answer.status == "sat" and "abstracted" in backend:
+            # likely false as stated too: the raw forms below rarely decide it, so keep them short
+            projected_cex = True
+            budget = min(budget, PROJECTED_CEX_SECONDS)
+            if budget <= QUICK_SECONDS:
+                break
+    if projected_cex and budget <= QUICK_SECONDS:
+        return ObligationResult(ob.id, ob.path, "unknown", time.perf_counter() - start,
+                                reason="not proved: its projected form (abstracted) has a counterexample")
+    answer = check_valid(ob.formula, budget)
     res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
+    if res.verdict == "unknown" and projected_cex:
+        res.reason = (f"{res.reason}; its projected form (abstracted) has a counterexample, "
+                      "so it is probably false")
     if not keep_model:
         res.raw_model = None
     return res
@@ -141,10 +161,17 @@ class Prover:
             on_start(len(obligations))
         if smtlib_dir is not None:
             write_smtlib(theorem.name, obligations, smtlib_dir)
-        results = self._discharge(obligations, on_result)
-        verdict, reason, refutation = "proved", "", None
-        if any(r.verdict != "proved" for r in results):
+        refutation, why = None, ""
+        if theorem.expected == "refuted":
+            # Scheduling only: a violating run makes `proved` impossible whatever the
+            # obligations say, so look for it first and then keep the per-branch report quick.
             refutation, why = self._run(_refute_task, theorem, self.timeout_s)
+        timeout = QUICK_SECONDS if refutation is not None else self.timeout_s
+        results = self._discharge(obligations, on_result, timeout)
+        verdict, reason = "proved", ""
+        if any(r.verdict != "proved" for r in results):
+            if refutation is None and theorem.expected != "refuted":
+                refutation, why = self._run(_refute_task, theorem, self.timeout_s)
             if refutation is not None:
                 verdict = "refuted"
                 reason = f"a run with {refutation.depth} loop iteration(s) violates the guarantee"
@@ -162,16 +189,17 @@ class Prover:
         return fn(*args) if pool is None else pool.submit(fn, *args).result()
 
     def _discharge(self, obligations: list[Obligation],
-                   on_result: Callable[[ObligationResult], None] | None) -> list[ObligationResult]:
+                   on_result: Callable[[ObligationResult], None] | None,
+                   timeout_s: float) -> list[ObligationResult]:
         pool = self._executor()
         results: list[ObligationResult] = []
         if pool is None or len(obligations) == 1:
             for ob in obligations:
-                results.append(discharge_one(ob, self.timeout_s))
+                results.append(discharge_one(ob, timeout_s))
                 if on_result:
                     on_result(results[-1])
             return results
-        futures = [pool.submit(discharge_one, ob, self.timeout_s) for ob in obligations]
+        futures = [pool.submit(discharge_one, ob, timeout_s) for ob in obligations]
         for fut in futures:
             results.append(fut.result())
             if on_result:

@@ -5,8 +5,9 @@ fresh constant c (skolemisation). A hypothesis `∀j ψ(j)` may be replaced by a
 instances `ψ(t)` (weakening), so the quantifier-free result, if valid, proves the original.
 Instances use, per bound variable, the goal's skolem constants of its sort and, for index
 and integer sorts, every symbol of that sort in the obligation (e.g. the boundary being
-processed); real variables also take the real symbols of the goal (e.g. a flow's duration). This is how per-boundary reasoning about "every boundary processed so far"
-reaches nlsat without quantifiers.
+processed); on a second attempt real variables also take the real symbols of the goal
+(e.g. a flow's duration). This is how per-boundary reasoning about "every boundary
+processed so far" reaches nlsat without quantifiers.
 """
 
 from __future__ import annotations

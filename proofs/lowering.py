@@ -79,8 +79,9 @@ def read_name(read: Node) -> str:
     return f"{array.payload}[{','.join(str(i) for i in idx)}]"
 
 
-def lower(formula: Node) -> Node | None:
-    """Plain real/Bool/Int arithmetic equivalent in validity, or None if not applicable."""
+def lower(formula: Node, reads_out: dict[str, tuple] | None = None) -> Node | None:
+    """Plain real/Bool/Int arithmetic equivalent in validity, or None if not applicable.
+    reads_out, if given, receives symbol name -> (array name, index terms) for each read."""
     f = eliminate_stores(formula)
     if _has(f, "store") or _has(f, "forall") or _has(f, "exists"):
         return None
@@ -99,6 +100,8 @@ def lower(formula: Node) -> Node | None:
     except ValueError:
         return None
     mapping = {k: Var(k, r.sort) for k, r in reads.items()}
+    if reads_out is not None:
+        reads_out.update({k: (r.args[0].payload, r.args[1:]) for k, r in reads.items()})
 
     def to_real_index(n: Node) -> Node:
         if n.op == "var" and not n.sort.is_array and n.sort not in (REAL, INT, BOOL):

@@ -16,16 +16,17 @@ from fractions import Fraction
 from typing import Any
 
 from certiloop.models.programs import ODE, Assign, Choice, Havoc, Program, Seq, Test, program_symbols
-from certiloop.models.terms import BOOL, And, Implies, Var, substitute
+from certiloop.models.terms import BOOL, TRUE, And, Implies, Var, free_vars, substitute
 from certiloop.models.theorem import Theorem
 
 from .bmc import Encoder
 from .exact import evaluate, index_value, truth
+from .finite import model_back, over_family
 from .interval import show_value
 from .odes import holds_along
 from .smt import ArrayValue, check_valid
 from .vcgen import Names
-from .verdicts import judge, readable
+from .verdicts import _exactness, judge, readable
 from .wp import expand_modalities, flow_solution, unroll
 
 
@@ -56,13 +57,23 @@ class Refutation:
                 "check": self.check, "seconds": round(self.seconds, 4)}
 
 
+SHORTCUT_SECONDS = 4.0  # per small-family attempt: they either find a run fast or not at all
+
+
 def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
     """(refutation, "") if a violating run was found and re-checked, else (None, why not)."""
     start = time.perf_counter()
     why = f"no violating run with at most {theorem.unroll} loop iterations"
-    for depth in range(1, theorem.unroll + 1):
+    index_sort = _index_sort(theorem)
+    depths = range(1, theorem.unroll + 1)
+    scenarios = (*theorem.scenarios, None)
+    # cheap shortcuts first (the most restricted scenario, small concrete families, at every
+    # depth), the general search last
+    attempts = [(d, s, m) for s in scenarios for d in depths for m in range(d, 0, -1)] if index_sort else []
+    attempts += [(d, s, None) for d in depths for s in scenarios]
+    for depth, scenario, size in attempts:
         names = Names()
-        pre = expand_modalities(theorem.assumptions, names)
+        pre = expand_modalities(And(theorem.assumptions, scenario if scenario is not None else TRUE), names)
         post = expand_modalities(theorem.guarantee, names)
         program = unroll(theorem.program, depth)
         encoder = Encoder(names)
@@ -70,15 +81,25 @@ def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
         claim = Implies(And(pre, *run), substitute(post, final))
         record = encoder.record
         left = max(0.5, timeout_s - (time.perf_counter() - start))
-        answer = check_valid(claim, left)
-        if answer.status == "unknown":
-            return None, f"refutation search at depth {depth}: {answer.reason}"
-        if answer.status == "unsat":
-            continue
-        verdict = judge("run", "", claim, answer, 0.0)
-        if verdict.verdict != "refuted":
-            return None, f"run at depth {depth} did not re-check: {verdict.reason}"
-        model = answer.model or {}
+        shortcut = scenario is not None or size is not None
+        if size is not None:
+            model = _search_family(claim, index_sort, size, min(left / 4, SHORTCUT_SECONDS))
+            if model is None:
+                continue
+        else:
+            # a scenario is a shortcut: it gets a share of the time, the general search the rest
+            answer = check_valid(claim, left / 2 if shortcut else left)
+            if answer.status == "unknown":
+                if shortcut:
+                    continue
+                return None, f"refutation search at depth {depth}: {answer.reason}"
+            if answer.status == "unsat":
+                continue
+            verdict = judge("run", "", claim, answer, 0.0)
+            if verdict.verdict != "refuted":
+                return None, f"run at depth {depth} did not re-check: {verdict.reason}"
+            model = answer.model or {}
+        check = "exact rationals" if _exactness(model) == "exact rationals" else _exactness(model)
         initial = {k: v for k, v in model.items() if "@" not in k}
         replay = Replay(model, record, post)
         trace = replay.run(program, initial)
@@ -86,8 +107,30 @@ def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
             return None, f"BUG: the solver's run at depth {depth} does not replay"
         # the model may hold live z3 handles (array lookups): keep only plain text
         return Refutation(depth, replay.start, trace, f"{theorem.guarantee} is false at the end",
-                          verdict.check, time.perf_counter() - start), ""
+                          check, time.perf_counter() - start), ""
     return None, why
+
+
+def _index_sort(theorem: Theorem) -> str | None:
+    for sym in {**program_symbols(theorem.program), **free_vars(theorem.guarantee)}.values():
+        sort = sym.sort.domain[0] if sym.sort.is_array else sym.sort
+        if not sort.is_numeric and sort != BOOL and not sort.is_array:
+            return sort.name
+    return None
+
+
+def _search_family(claim, sort_name: str, size: int, timeout_s: float) -> dict[str, Any] | None:
+    """A state over a family of `size` elements that falsifies the claim, checked exactly
+    on the original (quantified) claim, or None."""
+    found = over_family(claim, sort_name, size)
+    if found is None:
+        return None
+    lowered, reads = found
+    answer = check_valid(lowered, timeout_s)
+    if answer.status != "sat":
+        return None
+    state = model_back(answer.model or {}, reads, claim, sort_name, size)
+    return state if truth(claim, state) is False else None
 
 
 class Replay:

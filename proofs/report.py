@@ -47,9 +47,10 @@ def show_result(console: Console, result: TheoremResult, verbose: bool = False) 
                       highlight=False)
         if o.counterexample and o.verdict == "refuted":
             values = ", ".join(f"{k} = {v}" for k, v in o.counterexample.items())
-            console.print(f"    obligation counterexample ({o.check}): {values}", highlight=False)
+            console.print(f"    obligation counterexample ({o.check}): {values}", highlight=False,
+                          markup=False)
     if result.reason:
-        console.print(f"  {result.reason}", highlight=False)
+        console.print(f"  {result.reason}", highlight=False, markup=False)
     if result.refutation is not None:
         show_refutation(console, result)
 
@@ -57,12 +58,13 @@ def show_result(console: Console, result: TheoremResult, verbose: bool = False) 
 def show_refutation(console: Console, result: TheoremResult) -> None:
     ref = result.refutation
     console.print(f"  [bold red]counterexample run[/] (checked with {ref.check}):")
-    console.print("    start: " + ", ".join(f"{k} = {v}" for k, v in ref.initial.items()), highlight=False)
+    console.print("    start: " + ", ".join(f"{k} = {v}" for k, v in ref.initial.items()), highlight=False,
+                  markup=False)
     previous = dict(ref.initial)
     for step in ref.trace:
         changed = {k: v for k, v in step.state.items() if previous.get(k) != v}
         previous = step.state
-        where = escape(f"[{step.path}] ") if step.path else ""
+        where = f"[{step.path}] " if step.path else ""
         after = ", ".join(f"{k} = {v}" for k, v in changed.items()) or "no change"
-        console.print(f"    {where}{step.what}  →  {after}", highlight=False)
-    console.print(f"    violated: {ref.violated}", highlight=False)
+        console.print(f"    {where}{step.what}  →  {after}", highlight=False, markup=False)
+    console.print(f"    violated: {ref.violated}", highlight=False, markup=False)

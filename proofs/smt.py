@@ -17,21 +17,26 @@ from .interval import Interval
 
 
 class Z3Translator:
+    """Translates into its own z3 context: every check starts from a clean slate, so the
+    same obligation gets the same search (z3's global context carries state between checks,
+    which made results depend on what was checked before)."""
+
     def __init__(self) -> None:
+        self.ctx = z3.Context()
         self.sorts: dict[str, z3.SortRef] = {}
         self.symbols: dict[str, z3.ExprRef] = {}
 
     def sort(self, s: Sort) -> z3.SortRef:
         if s == REAL:
-            return z3.RealSort()
+            return z3.RealSort(self.ctx)
         if s == INT:
-            return z3.IntSort()
+            return z3.IntSort(self.ctx)
         if s == BOOL:
-            return z3.BoolSort()
+            return z3.BoolSort(self.ctx)
         if s.is_array:
             return z3.ArraySort(*(self.sort(d) for d in s.domain), self.sort(s.range))
         if s.name not in self.sorts:
-            self.sorts[s.name] = z3.DeclareSort(s.name)
+            self.sorts[s.name] = z3.DeclareSort(s.name, self.ctx)
         return self.sorts[s.name]
 
     def symbol(self, n: Node, bound: dict[str, z3.ExprRef]) -> z3.ExprRef:
@@ -51,14 +56,14 @@ class Z3Translator:
         if op == "const":
             f: Fraction = n.payload
             if n.sort == INT:
-                return z3.IntVal(f.numerator)
-            return z3.RealVal(f"{f.numerator}/{f.denominator}")
+                return z3.IntVal(f.numerator, self.ctx)
+            return z3.RealVal(f"{f.numerator}/{f.denominator}", self.ctx)
         if op == "var":
             return self.symbol(n, bound)
         if op == "true":
-            return z3.BoolVal(True)
+            return z3.BoolVal(True, self.ctx)
         if op == "false":
-            return z3.BoolVal(False)
+            return z3.BoolVal(False, self.ctx)
         sub = [self.tr(a, bound) for a in args] if op not in ("forall", "exists") else []
         if op == "+":
             return z3.Sum(*sub) if len(sub) > 1 else sub[0]
@@ -71,7 +76,7 @@ class Z3Translator:
             return z3.ToReal(a) / z3.ToReal(b) if z3.is_int(a) and z3.is_int(b) else a / b
         if op == "^":
             return z3.Product(*([sub[0]] * n.payload)) if n.payload > 1 else (
-                sub[0] if n.payload == 1 else z3.IntVal(1))
+                sub[0] if n.payload == 1 else z3.IntVal(1, self.ctx))
         if op == "select":
             return z3.Select(sub[0], *sub[1:])
         if op == "store":
@@ -141,9 +146,9 @@ def check_valid(formula: Node, timeout_s: float, want_smtlib: bool = False) -> S
     tr = Z3Translator()
     goal = z3.Not(tr(formula))
     if _quantifier_free(formula) and _pure_real(tr, formula):
-        solver = z3.SolverFor("QF_NRA")
+        solver = z3.SolverFor("QF_NRA", ctx=tr.ctx)
     else:
-        solver = z3.Solver()
+        solver = z3.Solver(ctx=tr.ctx)
     solver.set("timeout", max(1, int(timeout_s * 1000)))
     solver.add(goal)
     smt = solver.to_smt2() if want_smtlib else ""
@@ -167,7 +172,7 @@ def check_valid(formula: Node, timeout_s: float, want_smtlib: bool = False) -> S
 def smtlib_text(formula: Node, name: str = "") -> str:
     """A standalone SMT-LIB 2 script whose `unsat` answer proves `formula` valid."""
     tr = Z3Translator()
-    s = z3.Solver()
+    s = z3.Solver(ctx=tr.ctx)
     s.add(z3.Not(tr(formula)))
     head = f"; certiloop obligation {name}\n; unsat means the obligation is valid (proved)\n"
     return head + s.to_smt2()
@@ -261,12 +266,13 @@ def _array_value(v: z3.ExprRef, model: z3.ModelRef) -> ArrayValue | str:
 
 
 def _z3_index(x: Any, sort: z3.SortRef) -> z3.ExprRef:
+    ctx = sort.ctx
     if isinstance(x, bool):
-        return z3.BoolVal(x)
+        return z3.BoolVal(x, ctx)
     if isinstance(x, int):
-        return z3.IntVal(x)
+        return z3.IntVal(x, ctx)
     if isinstance(x, Fraction):
-        return z3.RealVal(f"{x.numerator}/{x.denominator}")
+        return z3.RealVal(f"{x.numerator}/{x.denominator}", ctx)
     raise ValueError(f"cannot index a z3 array by {x!r}")
 
 
