@@ -12,9 +12,10 @@ from .theorem import Theorem
 _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl1": sbs.ctrl1,
     "sbs.ctrl1_broken": sbs.ctrl1_broken,
+    "sbs.immediate": sbs.immediate,
+    "sbs.eqn12": sbs.eqn12,
     "sbs.ctrl2_2d": sbs.ctrl2_2d,
     "sbs.ctrl2": sbs.ctrl2,
-    "sbs.ctrl2_dynamic": sbs.ctrl2_dynamic,
     "sbs.ctrl2_wrong_k": sbs.ctrl2_wrong_k,
     "sbs.ctrl2_last_wins": sbs.ctrl2_last_wins,
     "cfmpa.builtdr": cfmpa.builtdr,

@@ -276,3 +276,73 @@ def ctrl2_last_wins() -> Theorem:
     processed decides the gain for all of them."""
     return _ctrl2("sbs.ctrl2_last_wins", 3, "refuted", "ctrl2 mutant: min replaced by the last boundary's kt",
                   combine=lambda s: assign(s.k, s.kt))
+
+
+# =========================================================================== 6.2.1 and Eqn 12
+
+k_imm, t_imm, e_imm = Reals("k t e")
+
+
+def immediate() -> Theorem:
+    """6.2.1: delayed control with the slow-zone feedback of Eqn 2 rewritten as Eqn 6,
+    p' = G (f - k n), with k chosen at the start of each step from the current state and
+    no prediction. Boundary: the x-axis, n = (0, 1), safe side py >= 0. Within one delay e a
+    fast inward push starting just outside the slow zone crosses the whole buffer D."""
+    towards = fy < 0
+    control = choice(
+        branch("free zone: no feedback", test(py > D), assign(k_imm, 0)),
+        branch("slow zone, towards: k = (1 - d/D) f·n", test(And(0 <= py, py <= D, towards)),
+               assign(k_imm, (1 - py / D) * fy)),
+        branch("slow zone, away: no feedback", test(And(0 <= py, py <= D, fy >= 0)), assign(k_imm, 0)),
+    )
+    plant = ode({px: G * fx, py: G * (fy - k_imm), fx: fxp, fy: fyp, t_imm: 1}, t_imm <= e_imm)
+    step = seq(havoc(fxp), havoc(fyp), control, assign(t_imm, 0), plant)
+    return Theorem(
+        name="sbs.immediate",
+        assumptions=And(py >= 0, G > 0, D > 0, e_imm > 0),
+        program=loop(step, invariant=py >= 0, label="control loop"),
+        guarantee=py >= 0,
+        expected="refuted",
+        constants=(G, D, e_imm),
+        description="6.2.1: immediate (non-predictive) delayed control crosses D within one delay",
+    )
+
+
+wx, wy, vx, vy, xx, xy, nix, niy, njx, njy, di, dj = Reals("wx wy vx vy xx xy nix niy njx njy di dj")
+
+
+def _q(ax, ay, nx_, ny_, d):
+    """Eqn 10: Q(a, v) for the boundary with normal n and distance d."""
+    a_n, v_n = ax * nx_ + ay * ny_, vx * nx_ + vy * ny_
+    return Or(-a_n <= -v_n * d / D, a_n >= 0)
+
+
+def eqn12() -> Theorem:
+    """Eqns 10-13: the sequential velocity-projection algorithm as a Hoare triple
+    {Q_i(w,v)} x := Eqn12(w) {Q_i(x,v) ∧ Q_j(x,v)}, for two boundaries in 2D (C_s = {i}).
+    The paper reports a counterexample in the fourth case with n_i·n_j <= 0; the first case
+    (which also adds a multiple of n_j) fails for acute angles as well."""
+    w_nj, v_nj = wx * njx + wy * njy, vx * njx + vy * njy
+    attenuated = -w_nj >= -v_nj * dj / D
+    corr = (vx * dj / D - wx) * njx + (vy * dj / D - wy) * njy
+    cases = choice(
+        branch("case 1: subtract the excess normal speed",
+               test(And(w_nj <= 0, v_nj <= 0, attenuated)),
+               assign(xx, wx + corr * njx), assign(xy, wy + corr * njy)),
+        branch("case 2: already attenuated", test(And(w_nj <= 0, v_nj <= 0, -w_nj <= -v_nj * dj / D)),
+               assign(xx, wx), assign(xy, wy)),
+        branch("case 3: moving away", test(w_nj >= 0), assign(xx, wx), assign(xy, wy)),
+        branch("case 4: remove the normal component",
+               test(And(w_nj <= 0, v_nj >= 0)),
+               assign(xx, wx - w_nj * njx), assign(xy, wy - w_nj * njy)),
+    )
+    return Theorem(
+        name="sbs.eqn12",
+        assumptions=And(D > 0, nix**2 + niy**2 == 1, njx**2 + njy**2 == 1, 0 <= di, di <= D,
+                        0 <= dj, dj <= D, _q(wx, wy, nix, niy, di)),
+        program=cases,
+        guarantee=And(_q(xx, xy, nix, niy, di), _q(xx, xy, njx, njy, dj)),
+        expected="refuted",
+        constants=(D,),
+        description="Eqn 12: sequential projection breaks an earlier boundary at acute angles (Eqn 13)",
+    )

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
+from certiloop.models.terms import INT
 from certiloop.models.theorem import Theorem
 
 from .abstraction import abbreviation_instances, abstract, congruences, lower_term
@@ -72,8 +73,6 @@ def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) ->
             # likely false as stated too: the raw forms below rarely decide it, so keep them short
             projected_cex = True
             budget = min(budget, PROJECTED_CEX_SECONDS)
-            if budget <= QUICK_SECONDS:
-                break
     if projected_cex and budget <= QUICK_SECONDS:
         return ObligationResult(ob.id, ob.path, "unknown", time.perf_counter() - start,
                                 reason="not proved: its projected form (abstracted) has a counterexample")
@@ -90,9 +89,17 @@ def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) ->
 def _weakenings(ob: Obligation):
     """Formulas that imply the obligation and are easier for z3: instantiated quantifiers,
     then projected (abstracted) arithmetic. Only an `unsat` (proved) answer is used."""
+    if _quantifies_integers(ob.formula):
+        return  # z3's own quantifier engine handles integer-indexed arrays (builtDR) best
     yield from _weakened(ob, wide=False)
     if instantiate(ob.formula) is not None:
         yield from _weakened(ob, wide=True)
+
+
+def _quantifies_integers(n) -> bool:
+    if n.op in ("forall", "exists") and any(v.sort == INT for v in n.payload):
+        return True
+    return any(_quantifies_integers(a) for a in n.args)
 
 
 def _weakened(ob: Obligation, wide: bool):

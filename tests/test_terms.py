@@ -51,7 +51,7 @@ def test_connectives_simplify_trivial_cases():
     assert str(And(x > 0, True)) == "x > 0"
     assert And(x > 0, False).op == "false"
     assert Implies(False, x > 0).op == "true"
-    assert str(Not(x > 0)) == "!x > 0"
+    assert str(Not(x > 0)) == "!(x > 0)"
 
 
 def test_families_and_arrays():
