@@ -299,6 +299,17 @@ def foreach(index: Node, done: Node, body: Program, invariant: Any,
 # --------------------------------------------------------------------------- static semantics
 
 
+def children(p: Program) -> tuple[Program, ...]:
+    """The sub-programs of a compound program (none for atomic statements)."""
+    if isinstance(p, Seq):
+        return p.parts
+    if isinstance(p, Choice):
+        return p.alternatives
+    if isinstance(p, Loop):
+        return (p.body,)
+    return ()
+
+
 def written(p: Program) -> dict[str, Node]:
     """Symbols a program may change (array cells count as their array), by name."""
     out: dict[str, Node] = {}
@@ -306,54 +317,33 @@ def written(p: Program) -> dict[str, Node]:
         root = _target_root(p.target)
         out[root.name] = root
     elif isinstance(p, ODE):
-        for v in p.variables:
-            out[v.name] = v
-    elif isinstance(p, Seq):
-        for q in p.parts:
-            out.update(written(q))
-    elif isinstance(p, Choice):
-        for q in p.alternatives:
-            out.update(written(q))
-    elif isinstance(p, Loop):
-        out.update(written(p.body))
+        out.update((v.name, v) for v in p.variables)
+    for q in children(p):
+        out.update(written(q))
     return out
 
 
 def program_symbols(p: Program) -> dict[str, Node]:
     """Every symbol a program mentions (read or written), by name."""
     out: dict[str, Node] = {}
+    formulas: list[Node] = []
     if isinstance(p, Assign):
-        out.update(free_vars(p.target))
-        out.update(free_vars(p.value))
+        formulas = [p.target, p.value]
     elif isinstance(p, Havoc):
-        out.update(free_vars(p.target))
+        formulas = [p.target]
     elif isinstance(p, Test):
-        out.update(free_vars(p.cond))
+        formulas = [p.cond]
     elif isinstance(p, ODE):
-        for v, f in p.eqs:
-            out[v.name] = v
-            out.update(free_vars(f))
-        out.update(free_vars(p.domain))
-        for inv in p.invariants:
-            out.update(free_vars(inv))
-    elif isinstance(p, Seq):
-        for q in p.parts:
-            out.update(program_symbols(q))
-    elif isinstance(p, Choice):
-        for q in p.alternatives:
-            out.update(program_symbols(q))
-    elif isinstance(p, Loop):
-        out.update(program_symbols(p.body))
-        if p.invariant is not None:
-            out.update(free_vars(p.invariant))
+        out.update((v.name, v) for v in p.variables)
+        formulas = [f for _, f in p.eqs] + [p.domain, *p.invariants]
+    elif isinstance(p, Loop) and p.invariant is not None:
+        formulas = [p.invariant]
+    for f in formulas:
+        out.update(free_vars(f))
+    for q in children(p):
+        out.update(program_symbols(q))
     return out
 
 
 def is_loop_free(p: Program) -> bool:
-    if isinstance(p, Loop):
-        return False
-    if isinstance(p, Seq):
-        return all(is_loop_free(q) for q in p.parts)
-    if isinstance(p, Choice):
-        return all(is_loop_free(q) for q in p.alternatives)
-    return True
+    return not isinstance(p, Loop) and all(is_loop_free(q) for q in children(p))
