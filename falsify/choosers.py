@@ -1,0 +1,150 @@
+"""Who decides a run's nondeterminism: hypothesis (search), a script (replay), a RNG.
+
+The interpreter asks a chooser for every decision it cannot compute: initial values, the
+order in which a choice's alternatives are tried, a nondeterministic value no test pins
+down, how long an ODE runs, how many control steps a run has. Recording the answers gives
+a script that replays the same run, e.g. in exact arithmetic.
+"""
+
+from __future__ import annotations
+
+import random
+from typing import Any, Callable
+
+REAL_RANGE = 10.0  # nondeterministic reals are drawn from [-10, 10]: the models' scale
+
+
+class Diverged(Exception):
+    """A scripted replay asked for a decision the recorded run did not make."""
+
+
+class Chooser:
+    def real(self, what: str) -> float:
+        raise NotImplementedError
+
+    def integer(self, what: str, lo: int, hi: int) -> int:
+        raise NotImplementedError
+
+    def slack(self, strict: bool) -> float:
+        """How far inside an inequality a repaired initial value lands (0: on the edge)."""
+        raise NotImplementedError
+
+    def fraction(self) -> float:
+        """Which share of the longest allowed ODE duration to follow (1: all of it)."""
+        raise NotImplementedError
+
+    def duration(self, longest: Callable[[float], float]) -> float:
+        """How long an ODE runs: `longest(u)` turns a drawn share u into a duration."""
+        return longest(self.fraction())
+
+    def pick(self, what: str, n: int) -> int:
+        return self.integer(what, 0, n - 1)
+
+    def flag(self, what: str) -> bool:
+        return self.integer(what, 0, 1) == 1
+
+
+class HypothesisChooser(Chooser):
+    """Decisions drawn from hypothesis's `data` object, so hypothesis can target, shrink
+    and replay them."""
+
+    def __init__(self, data) -> None:
+        from hypothesis import strategies as st
+
+        self.data, self.st = data, st
+        self._real = st.floats(-REAL_RANGE, REAL_RANGE, allow_nan=False, allow_infinity=False)
+        self._slack = st.one_of(st.just(0.0), st.floats(0.0, REAL_RANGE))
+        self._strict_slack = st.one_of(st.just(1.0), st.floats(1e-3, REAL_RANGE))
+        self._fraction = st.one_of(st.just(1.0), st.floats(0.0, 1.0))
+
+    def real(self, what: str) -> float:
+        return self.data.draw(self._real)
+
+    def integer(self, what: str, lo: int, hi: int) -> int:
+        return self.data.draw(self.st.integers(lo, hi))
+
+    def slack(self, strict: bool) -> float:
+        return self.data.draw(self._strict_slack if strict else self._slack)
+
+    def fraction(self) -> float:
+        return self.data.draw(self._fraction)
+
+
+class RandomChooser(Chooser):
+    """Plain pseudo-random decisions (benchmarks, smoke runs)."""
+
+    def __init__(self, seed: int = 0) -> None:
+        self.rng = random.Random(seed)
+
+    def real(self, what: str) -> float:
+        return self.rng.uniform(-REAL_RANGE, REAL_RANGE)
+
+    def integer(self, what: str, lo: int, hi: int) -> int:
+        return self.rng.randint(lo, hi)
+
+    def slack(self, strict: bool) -> float:
+        return self.rng.uniform(1e-3 if strict else 0.0, REAL_RANGE) if self.rng.random() < 0.7 else (
+            1.0 if strict else 0.0)
+
+    def fraction(self) -> float:
+        return 1.0 if self.rng.random() < 0.5 else self.rng.random()
+
+
+class Recording(Chooser):
+    """Passes decisions through from another chooser and keeps them as a script."""
+
+    def __init__(self, inner: Chooser) -> None:
+        self.inner = inner
+        self.script: list[tuple[str, Any]] = []
+
+    def _keep(self, kind: str, value: Any) -> Any:
+        self.script.append((kind, value))
+        return value
+
+    def real(self, what):
+        return self._keep("real", self.inner.real(what))
+
+    def integer(self, what, lo, hi):
+        return self._keep("integer", self.inner.integer(what, lo, hi))
+
+    def slack(self, strict):
+        return self._keep("slack", self.inner.slack(strict))
+
+    def fraction(self):
+        return self._keep("fraction", self.inner.fraction())
+
+    def duration(self, longest):
+        # the duration itself is kept, so a replay need not recompute floating-point
+        # event times
+        return self._keep("duration", longest(self.inner.fraction()))
+
+
+class Scripted(Chooser):
+    """Replays a recorded script, decision by decision."""
+
+    def __init__(self, script: list[tuple[str, Any]]) -> None:
+        self.script, self.at = script, 0
+
+    def _next(self, kind: str) -> Any:
+        if self.at >= len(self.script):
+            raise Diverged(f"the replay asked for a {kind} after the recorded run ended")
+        got, value = self.script[self.at]
+        self.at += 1
+        if got != kind:
+            raise Diverged(f"the replay asked for a {kind} where the run decided a {got}")
+        return value
+
+    def real(self, what):
+        return self._next("real")
+
+    def integer(self, what, lo, hi):
+        return self._next("integer")
+
+    def slack(self, strict):
+        return self._next("slack")
+
+    def fraction(self):
+        return self._next("fraction")
+
+    def duration(self, longest):
+        return self._next("duration")

@@ -1,0 +1,172 @@
+"""Following an ODE {x' = f & Q} from a concrete state.
+
+Where the proof engine has the exact (polynomial) solution the flow is evaluated in closed
+form; otherwise scipy's `solve_ivp` integrates it with error control and stops at the edge
+of the evolution domain Q by event detection. The run may stop at any time the domain
+still holds; the chooser picks that time as a share of the longest allowed duration.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any, Callable
+
+import numpy as np
+from scipy.integrate import solve_ivp
+from scipy.optimize import brentq
+
+from certiloop.models.programs import ODE
+from certiloop.proofs.wp import flow_solution
+
+from .evaluate import Blocked, Compiler, margin
+
+GRID = 64  # samples when locating where a closed-form flow leaves its domain
+WATCH_SAMPLES = 33  # samples along a flow for the guarantee's margins (plots, targeting)
+RTOL, ATOL = 1e-7, 1e-9  # found runs are re-checked, so search favours speed
+
+
+class Inexact(Exception):
+    """This flow has no closed form, so it cannot be replayed in exact arithmetic."""
+
+
+class Flow:
+    def __init__(self, ode: ODE, compiler: Compiler) -> None:
+        self.ode = ode
+        self.exact = compiler.exact
+        self.names = [v.name for v in ode.variables]
+        self.rhs = [compiler(f) for _, f in ode.eqs]
+        self.domain = margin(ode.domain, compiler)
+        self.domain_holds = compiler(ode.domain)
+        s, solution = flow_solution(ode)
+        self.s_name = s.payload
+        self.solution = None if solution is None else {n: compiler(x) for n, x in solution.items()}
+        self.symbolic = solution
+        self._along = None
+
+    # ---- the state after following the flow for tau
+    def at(self, state: dict[str, Any], tau) -> dict[str, Any]:
+        if self.solution is None:
+            raise Inexact(f"the ODE {self.ode} has no closed-form solution")
+        env = dict(state)
+        env[self.s_name] = tau
+        out = dict(state)
+        for name, fn in self.solution.items():
+            out[name] = fn(env)
+        return out
+
+    def run(self, state: dict[str, Any], duration: Callable[[Callable[[float], float]], float],
+            horizon: float, watch: Callable[[dict], float] | None = None):
+        """Follow the flow for a duration chosen through `duration`; returns the end state,
+        the duration and sampled (tau, state) pairs along the way."""
+        if not self.domain_holds(state):
+            raise Blocked("the evolution domain does not hold at the start")
+        if self.exact:
+            tau = Fraction(duration(lambda u: 0.0))
+            self._check_exact(state, tau)
+            return self.at(state, tau), tau, [(0, state), (tau, self.at(state, tau))]
+        trajectory, longest = self._trajectory(state, horizon)
+
+        def settle(u: float) -> float:
+            end = u * longest
+            if watch is None or end <= 0:
+                return end
+            # stopping the flow is always allowed: stop where the guarantee is worst
+            times = np.linspace(0.0, end, WATCH_SAMPLES)
+            worst = min(times, key=lambda t: watch(trajectory(t)))
+            return float(worst) if watch(trajectory(worst)) < 0 else end
+
+        tau = float(duration(settle))
+        if tau < 0 or tau > longest * (1 + 1e-12) + 1e-15:
+            raise Blocked(f"ODE duration {tau} outside [0, {longest}]")
+        samples = [(float(t), trajectory(float(t))) for t in np.linspace(0.0, tau, WATCH_SAMPLES)]
+        return trajectory(tau), tau, samples
+
+    def _trajectory(self, state, horizon: float):
+        """(tau -> state, longest duration within the domain and the horizon)."""
+        if self.solution is not None:
+            traj = lambda t: self.at(state, t)  # noqa: E731
+            return traj, self._exit_time(traj, horizon)
+        return self._integrate(state, horizon)
+
+    def _exit_time(self, traj, horizon: float) -> float:
+        g = lambda t: self.domain(traj(t))  # noqa: E731
+        return _last_inside(g, 0.0, horizon, depth=0)
+
+    def _integrate(self, state, horizon: float):
+        names, rhs = self.names, self.rhs
+        work = dict(state)
+
+        def put(y):
+            for name, value in zip(names, y):
+                work[name] = float(value)
+            return work
+
+        def f(_t, y):
+            return [r(put(y)) for r in rhs]
+
+        def leaves(_t, y):
+            return self.domain(put(y))
+        leaves.terminal, leaves.direction = True, -1
+        y0 = [float(state[n]) for n in names]
+        sol = solve_ivp(f, (0.0, horizon), y0, events=leaves, dense_output=True, rtol=RTOL, atol=ATOL)
+        if sol.status == -1:
+            raise Blocked(f"integration failed: {sol.message}")
+        longest = float(sol.t_events[0][0]) if len(sol.t_events[0]) else float(sol.t[-1])
+
+        def traj(t):
+            out = dict(state)
+            for name, value in zip(names, sol.sol(min(t, longest))):
+                out[name] = float(value)
+            return out
+        return traj, longest
+
+    def _check_exact(self, state, tau) -> None:
+        """The domain must hold along the whole flow, decided exactly."""
+        from certiloop.models.terms import Var
+        from certiloop.proofs.exact import truth
+        from certiloop.proofs.odes import holds_along
+
+        if self.symbolic is None:
+            raise Inexact(f"the ODE {self.ode} has no closed-form solution")
+        if tau < 0:
+            raise Blocked("negative ODE duration")
+        if self._along is None:
+            self._along = holds_along(self.ode.domain, self.symbolic, Var("tau@flow"), Var(self.s_name))
+        env = exact_view(state)
+        env["tau@flow"] = tau
+        if truth(self._along, env) is not True:
+            raise Blocked("the evolution domain does not provably hold along the flow")
+
+
+def _last_inside(g, start: float, end: float, depth: int) -> float:
+    """The end of the first stretch from `start` on which g >= 0, on a grid refined where
+    the flow starts on the domain's edge (g(start) = 0) and leaves it within one cell."""
+    previous = start
+    for t in np.linspace(start, end, GRID)[1:]:
+        t = float(t)
+        if g(t) < 0:
+            if g(previous) > 0:
+                root = brentq(g, previous, t, xtol=1e-14)
+                return root if g(root) >= 0 else previous + (root - previous) * (1 - 1e-9)
+            if previous == start and depth < 8:
+                return _last_inside(g, start, t, depth + 1)
+            return previous
+        previous = t
+    return end
+
+
+def exact_view(state: dict[str, Any]) -> dict[str, Any]:
+    """The state as proofs.exact expects it (arrays as ArrayValue, universes as lists)."""
+    from certiloop.proofs.smt import ArrayValue
+
+    from .evaluate import Table
+
+    out = {}
+    for name, value in state.items():
+        if isinstance(value, Table):
+            out[name] = ArrayValue(dict(value.cells), None)
+        elif isinstance(value, range):
+            out[name] = list(value)
+        else:
+            out[name] = value
+    return out

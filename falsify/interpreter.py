@@ -1,0 +1,468 @@
+"""Run a theorem's hybrid program on concrete values.
+
+Semantics (those of the proof engine, executed): an assignment stores a value; `x := *`
+leaves x open until something reads it — a test that pins it down (x*G = 1) solves for
+it, a finite choice (a Bool, an index) is tried value by value, anything else is asked of
+the chooser; a test that fails blocks, and a blocked alternative of a choice makes the
+interpreter try the next one; an ODE follows its flow for a duration within its domain.
+A loop followed by its exit test (`for`, `foreach`) runs until the test holds; the
+theorem's outer loop runs a number of control steps the chooser picks.
+
+The guarantee is checked at every point a run may end: at the start, after each
+iteration of the outer loop (ODE flows stopped where the guarantee is worst, which is
+always an allowed duration) and at the end of the program.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+from certiloop.models.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, program_symbols
+from certiloop.models.terms import BOOL, INT, ModelError, Node, free_vars
+from certiloop.models.theorem import Theorem
+
+from .choosers import Chooser
+from .evaluate import Blocked, Compiler, NeedValue, Table, margin, universe
+from .flows import Flow
+
+HORIZON = 10.0  # longest duration of an ODE without a time bound in its domain
+LOOP_BOUND = 1000  # iterations of an inner loop before the run is abandoned
+OPEN_LOOP_ITERATIONS = 3  # at most this many iterations of a loop with no exit test
+
+
+class Rejected(Exception):
+    """The chosen initial state does not satisfy the assumptions."""
+
+
+class _Violated(Exception):
+    pass
+
+
+@dataclass
+class Checkpoint:
+    """A point where the run may end: the state and the margin of every guarantee part."""
+
+    step: int  # iterations of the outer loop so far
+    time: float  # model time (sum of ODE durations)
+    choices: list[str]  # labels of the alternatives taken since the previous checkpoint
+    state: dict[str, Any]
+    margins: dict[str, float]
+
+    def to_json(self) -> dict[str, Any]:
+        return {"step": self.step, "time": round(self.time, 9), "choices": self.choices,
+                "state": self.state, "margins": {k: round(v, 9) for k, v in self.margins.items()}}
+
+
+@dataclass
+class Run:
+    checkpoints: list[Checkpoint] = field(default_factory=list)
+    samples: list[tuple[float, dict[str, float]]] = field(default_factory=list)  # along flows
+    step_starts: list[float] = field(default_factory=list)  # model time at each control step
+    violated: str | None = None  # the guarantee part that failed, with its margin
+
+    @property
+    def worst(self) -> float:
+        return min((min(c.margins.values(), default=1.0) for c in self.checkpoints), default=1.0)
+
+
+@dataclass
+class _Part:
+    """One conjunct of the guarantee; ∀ over an index sort splits into one per element."""
+
+    text: str
+    variable: str | None
+    sort: Any
+    margin: Any
+    holds: Any
+
+
+class Interpreter:
+    def __init__(self, theorem: Theorem, exact: bool = False, max_steps: int = 3,
+                 families: tuple[int, int] = (1, 8), horizon: float = HORIZON) -> None:
+        self.theorem, self.max_steps, self.families, self.horizon = theorem, max_steps, families, horizon
+        self.c = Compiler(exact)
+        self.exact = exact
+        self.top = _outer_loop(theorem.program)
+        self.guarantee = self.c(theorem.guarantee)
+        self.parts = _parts(theorem.guarantee, self.c)
+        self.index_sorts = index_sorts(theorem)
+        self.symbols = {**free_vars(theorem.assumptions), **program_symbols(theorem.program),
+                        **free_vars(theorem.guarantee)}
+        self._flows: dict[int, Flow] = {}
+
+    # ------------------------------------------------------------------ a run
+    def run(self, chooser: Chooser) -> Run:
+        from .initial import initial_state
+
+        self.chooser, self.out = chooser, Run()
+        self.path: list[str] = []
+        self.time: Any = 0
+        self.step = 0
+        state = initial_state(self, chooser)
+        try:
+            if self.top is None or self.top is not self.theorem.program:
+                self._exec(self.theorem.program, state)
+                if self.top is None:
+                    self._checkpoint(state)
+            else:
+                self._exec(self.top, state)
+        except _Violated:
+            pass
+        return self.out
+
+    def _checkpoint(self, s: dict[str, Any]) -> None:
+        holds = self._holds(self.guarantee, s)
+        margins = self.margins(s)
+        self.out.checkpoints.append(Checkpoint(self.step, float(self.time), self.path, snapshot(s), margins))
+        self.path = []
+        if not holds:
+            worst = min(margins, key=margins.get) if margins else str(self.theorem.guarantee)
+            self.out.violated = f"{worst} (margin {margins.get(worst, -1.0):.6g})"
+            raise _Violated
+
+    def margins(self, s: dict[str, Any]) -> dict[str, float]:
+        out: dict[str, float] = {}
+        for part in self.parts:
+            if part.variable is None:
+                _keep_known(out, part.text, part.margin, s)
+                continue
+            saved = s.get(part.variable)
+            for x in universe(s, part.sort):
+                s[part.variable] = x
+                _keep_known(out, f"{part.text} [{part.variable}={x}]", part.margin, s)
+            if saved is None:
+                s.pop(part.variable, None)
+            else:
+                s[part.variable] = saved
+        return out
+
+
+    # ------------------------------------------------------------------ statements
+    def _exec(self, p: Program, s: dict[str, Any]) -> None:
+        if isinstance(p, Assign):
+            store(s, p.target, self._value(self.c(p.value), s), self)
+        elif isinstance(p, Havoc):
+            self._open(p.target, s)
+        elif isinstance(p, Test):
+            if not self._holds(self.c(p.cond), s, p.cond):
+                raise Blocked(f"test {p.cond} failed")
+        elif isinstance(p, Seq):
+            parts = p.parts
+            for k, q in enumerate(parts):
+                if isinstance(q, Loop) and q is not self.top:
+                    after = parts[k + 1] if k + 1 < len(parts) else None
+                    self._loop(q, s, after.cond if isinstance(after, Test) else None)
+                else:
+                    self._exec(q, s)
+        elif isinstance(p, Choice):
+            self._choice(p, s)
+        elif isinstance(p, Loop):
+            if p is self.top:
+                self._outer(p, s)
+            else:
+                self._loop(p, s, None)
+        elif isinstance(p, ODE):
+            self._ode(p, s)
+        else:
+            raise ModelError(f"cannot execute {p!r}")
+
+    def _attempt(self, p: Program, s: dict[str, Any]) -> dict[str, Any] | None:
+        """Run p on a copy of s; the new state, or None (and nothing changed) if it blocks."""
+        mark = (len(self.path), len(self.out.samples), self.time)
+        trial = copy_state(s)
+        try:
+            self._exec(p, trial)
+            return trial
+        except Blocked:
+            del self.path[mark[0]:]
+            del self.out.samples[mark[1]:]
+            self.time = mark[2]
+            return None
+
+    def _choice(self, p: Choice, s: dict[str, Any]) -> None:
+        n = len(p.alternatives)
+        first = self.chooser.pick("alternative", n) if n > 1 else 0
+        for k in range(n):
+            at = (first + k) % n
+            self.path.append(p.labels[at])
+            new = self._attempt(p.alternatives[at], s)
+            if new is not None:
+                s.clear()
+                s.update(new)
+                return
+            self.path.pop()
+        raise Blocked("every alternative blocks")
+
+    def _loop(self, p: Loop, s: dict[str, Any], exit_test: Node | None) -> None:
+        done = self.c(exit_test) if exit_test is not None else None
+        for n in range(LOOP_BOUND):
+            if done is not None and self._quietly(done, s):
+                return
+            if done is None and (n >= OPEN_LOOP_ITERATIONS or not self.chooser.flag("iterate")):
+                return
+            new = self._attempt(p.body, s)
+            if new is None:
+                return
+            s.clear()
+            s.update(new)
+        raise Blocked(f"{p.label}: more than {LOOP_BOUND} iterations")
+
+    def _outer(self, p: Loop, s: dict[str, Any]) -> None:
+        self._checkpoint(s)
+        for _ in range(self.chooser.integer("control steps", 1, self.max_steps)):
+            self.out.step_starts.append(float(self.time))
+            new = self._attempt(p.body, s)
+            if new is None:  # no further step possible: the run ends here
+                return
+            s.clear()
+            s.update(new)
+            self.step += 1
+            self._checkpoint(s)
+
+    def _ode(self, p: ODE, s: dict[str, Any]) -> None:
+        flow = self._flows.get(id(p))
+        if flow is None:
+            flow = self._flows[id(p)] = Flow(p, self.c)
+        # open values the flow reads (a force rate nobody constrained, an unset position)
+        for f in (*flow.rhs, *(self.c(v) for v in p.variables)):
+            self._value(f, s)
+        if not self._holds(flow.domain_holds, s, p.domain):
+            raise Blocked("evolution domain false")
+        watch = self._worst if self.top is not None else None
+        end, tau, samples = flow.run(s, self.chooser.duration, self.horizon, watch)
+        for t, st in samples:
+            self.out.samples.append((float(self.time) + float(t), self.margins(st)))
+        self.time = self.time + tau
+        s.update(end)
+
+    def _worst(self, s) -> float:
+        return min(self.margins(s).values(), default=1.0)
+
+    def _quietly(self, fn, s) -> bool:
+        try:
+            return bool(fn(s))
+        except (NeedValue, Blocked):
+            return False
+
+    # ------------------------------------------------------------------ open values
+    def _open(self, target: Node, s: dict[str, Any]) -> None:
+        if target.op == "var":
+            if target.sort.is_array:
+                s[target.payload] = Table()
+            else:
+                s.pop(target.payload, None)
+            return
+        name, idx = cell_of(target, s, self)
+        table = s.setdefault(name, Table())
+        table.cells.pop(idx, None)
+
+    def _value(self, fn, s: dict[str, Any]) -> Any:
+        """Evaluate a term; open values it reads are chosen freely."""
+        while True:
+            try:
+                return fn(s)
+            except NeedValue as need:
+                put(s, need.key, self.candidates(need, s, None)[0])
+
+    def _holds(self, fn, s: dict[str, Any], cond: Node | None = None) -> bool:
+        """Evaluate a test; open values it reads are solved for or tried one by one."""
+        try:
+            return bool(fn(s))
+        except NeedValue as need:
+            for value in self.candidates(need, s, cond):
+                put(s, need.key, value)
+                if self._holds(fn, s, cond):
+                    return True
+                remove(s, need.key)
+            return False
+
+    def candidates(self, need: NeedValue, s: dict[str, Any], cond: Node | None) -> list[Any]:
+        what = need.key if isinstance(need.key, str) else f"{need.key[0]}{list(need.key[1])}"
+        sort = need.sort
+        if sort == BOOL:
+            first = self.chooser.flag(what)
+            return [first, not first]
+        if sort == INT:
+            solved = self._solve(need.key, s, cond)
+            return [solved] if solved is not None else [self.chooser.integer(what, -2, 8)]
+        if sort.is_numeric:
+            solved = self._solve(need.key, s, cond)
+            if solved is not None:
+                return [solved]
+            return [self.c.number(self.chooser.real(what))]
+        elements = list(universe(s, sort))
+        first = self.chooser.pick(what, len(elements))
+        return elements[first:] + elements[:first]
+
+    def _solve(self, key, s: dict[str, Any], cond: Node | None):
+        """The value of `key` that an equation of the test pins down, if it is linear in it."""
+        if cond is None:
+            return None
+        for atom in _conjuncts(cond):
+            if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
+                continue
+            x = solve_linear(self.c(atom.args[0] - atom.args[1]), key, s, self.exact)
+            if x is not None:
+                return x
+        return None
+
+
+# --------------------------------------------------------------------------- helpers
+
+
+def _keep_known(out: dict[str, float], label: str, fn, s) -> None:
+    """The margin of a guarantee part, left out while it reads a value still open."""
+    try:
+        out[label] = float(fn(s))
+    except (NeedValue, Blocked):
+        pass
+
+
+def solve_linear(g, key, s: dict[str, Any], exact: bool, target=0):
+    """x with g(x) = target if g is affine in the open value `key` (else None)."""
+    old = get(s, key)
+    try:
+        values = []
+        for x in (0, 1, 2):
+            put(s, key, Fraction(x) if exact else float(x))
+            values.append(g(s))
+    except (NeedValue, Blocked):
+        return None
+    finally:
+        remove(s, key) if old is None else put(s, key, old)
+    g0, g1, g2 = values
+    slope = g1 - g0
+    if slope == 0:
+        return None
+    if exact:
+        if g2 - g1 != slope:
+            return None
+    elif abs((g2 - g1) - slope) > 1e-9 * (1 + abs(slope)):
+        return None
+    return (target - g0) / slope
+
+
+def _conjuncts(f: Node) -> list[Node]:
+    if f.op == "and":
+        return [a for x in f.args for a in _conjuncts(x)]
+    return [f]
+
+
+def _outer_loop(p: Program) -> Loop | None:
+    if isinstance(p, Loop):
+        return p
+    if isinstance(p, Seq) and isinstance(p.parts[-1], Loop):
+        return p.parts[-1]
+    return None
+
+
+def _parts(guarantee: Node, c: Compiler) -> list[_Part]:
+    out = []
+    for g in _conjuncts(guarantee):
+        if g.op == "forall" and len(g.payload) == 1 and _is_index(g.payload[0].sort):
+            v = g.payload[0]
+            out.append(_Part(str(g.args[0]), v.payload, v.sort, margin(g.args[0], c), c(g.args[0])))
+        else:
+            out.append(_Part(str(g), None, None, margin(g, c), c(g)))
+    return out
+
+
+def _is_index(sort) -> bool:
+    return not sort.is_numeric and sort != BOOL and not sort.is_array
+
+
+def index_sorts(theorem: Theorem) -> list:
+    syms = {**program_symbols(theorem.program), **free_vars(theorem.assumptions),
+            **free_vars(theorem.guarantee)}
+    found: dict[str, Any] = {}
+
+    def visit(sort):
+        if sort.is_array:
+            for d in sort.domain:
+                visit(d)
+        elif _is_index(sort):
+            found[sort.name] = sort
+    for sym in syms.values():
+        visit(sym.sort)
+    _bound_sorts(theorem.assumptions, visit)
+    _bound_sorts(theorem.guarantee, visit)
+    return list(found.values())
+
+
+def _bound_sorts(f: Node, visit) -> None:
+    if f.op in ("forall", "exists"):
+        for v in f.payload:
+            visit(v.sort)
+    for a in f.args:
+        _bound_sorts(a, visit)
+
+
+def cell_of(target: Node, s: dict[str, Any], interp: Interpreter) -> tuple[str, tuple]:
+    from .evaluate import _index
+
+    root, idx = target.args[0], target.args[1:]
+    return root.payload, tuple(_index(interp._value(interp.c(i), s)) for i in idx)
+
+
+def store(s: dict[str, Any], target: Node, value: Any, interp: Interpreter) -> None:
+    if target.op == "var":
+        s[target.payload] = value
+        return
+    name, idx = cell_of(target, s, interp)
+    table = s.get(name)
+    if not isinstance(table, Table):
+        table = s[name] = Table()
+    table.cells[idx] = value
+
+
+def put(s: dict[str, Any], key, value: Any) -> None:
+    if isinstance(key, str):
+        s[key] = value
+    else:
+        table = s.get(key[0])
+        if not isinstance(table, Table):
+            table = s[key[0]] = Table()
+        table.cells[key[1]] = value
+
+
+def get(s: dict[str, Any], key) -> Any:
+    """The value at a symbol or cell, None while it is open."""
+    if isinstance(key, str):
+        return s.get(key)
+    table = s.get(key[0])
+    return table.cells.get(key[1]) if isinstance(table, Table) else None
+
+
+def remove(s: dict[str, Any], key) -> None:
+    if isinstance(key, str):
+        s.pop(key, None)
+    elif isinstance(s.get(key[0]), Table):
+        s[key[0]].cells.pop(key[1], None)
+
+
+def copy_state(s: dict[str, Any]) -> dict[str, Any]:
+    return {k: (v.copy() if isinstance(v, Table) else v) for k, v in s.items()}
+
+
+def snapshot(s: dict[str, Any]) -> dict[str, Any]:
+    """The state as plain JSON-able values (floats rounded to 9 significant digits)."""
+    out: dict[str, Any] = {}
+    for name in sorted(s):
+        value = s[name]
+        if name.startswith("#") or "@" in name or isinstance(value, range):
+            continue
+        if isinstance(value, Table):
+            out[name] = {",".join(map(str, k)): _plain(v) for k, v in sorted(value.cells.items())}
+        else:
+            out[name] = _plain(value)
+    return out
+
+
+def _plain(v: Any) -> Any:
+    if isinstance(v, bool) or isinstance(v, int):
+        return v
+    if isinstance(v, (float, Fraction)):
+        return float(f"{float(v):.9g}")
+    return str(v)

@@ -1,0 +1,141 @@
+"""Hypothesis-driven search for a run that violates a theorem's guarantee.
+
+Every example is one run of the interpreter whose decisions (initial values, family size,
+alternatives, open values, ODE durations, number of control steps) hypothesis draws. The
+search steers towards small guarantee margins (`hypothesis.target`), shrinks a violating
+run to a short one with round values, and keeps its example database in the project
+folder so a failure found once is tried first the next time.
+
+A violation is reported only after it was re-checked: replayed decision by decision in
+exact rational arithmetic, or, where that is impossible (irrational unit normals, ODEs
+without a closed form), only if the guarantee is violated by more than a tolerance far
+above floating-point error.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from certiloop.models.theorem import Theorem
+
+from .choosers import Diverged, HypothesisChooser, Recording, Scripted
+from .evaluate import Blocked
+from .flows import Inexact
+from .interpreter import Interpreter, Rejected, Run
+
+FLOAT_TOLERANCE = 1e-6  # relative: a float-only violation must be deeper than this
+DEFAULT_DATABASE = Path(".certiloop") / "hypothesis"
+
+
+@dataclass
+class Options:
+    max_examples: int = 2000
+    seed: int = 0
+    families: tuple[int, int] = (1, 8)
+    max_steps: int = 3
+    database: Path | None = DEFAULT_DATABASE
+
+    def digest(self) -> str:
+        return f"{self.families}/{self.max_steps}"
+
+
+@dataclass
+class Falsification:
+    model: str
+    found: bool
+    examples: int  # examples run until the first re-checked violation (or in all)
+    seconds: float
+    run: Run | None = None
+    check: str = ""  # how the violation was re-checked
+    script: list[tuple[str, Any]] = field(default_factory=list)
+
+    @property
+    def verdict(self) -> str:
+        return "refuted" if self.found else "no counterexample"
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"model": self.model, "verdict": self.verdict, "examples": self.examples,
+                               "seconds": round(self.seconds, 4), "counterexample": None}
+        if self.run is not None:
+            out["counterexample"] = {"trace": [c.to_json() for c in self.run.checkpoints],
+                                     "violated": self.run.violated, "check": self.check,
+                                     "steps": self.run.checkpoints[-1].step}
+        return out
+
+
+class _Found(Exception):
+    def __init__(self, run: Run, check: str, script) -> None:
+        super().__init__(run.violated)
+        self.run, self.check, self.script = run, check, script
+
+
+def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
+    from hypothesis import HealthCheck, Verbosity, given, reject, settings, target
+    from hypothesis import seed as fixed_seed
+    from hypothesis import strategies as st
+    from hypothesis.database import DirectoryBasedExampleDatabase
+
+    opts = options or Options()
+    interp = Interpreter(theorem, max_steps=opts.max_steps, families=opts.families)
+    count = {"examples": 0, "first": 0}
+    start = time.perf_counter()
+
+    def one_run(data) -> None:
+        count["examples"] += 1
+        chooser = Recording(HypothesisChooser(data))
+        try:
+            run = interp.run(chooser)
+        except (Rejected, Blocked):
+            reject()
+        worst = run.worst
+        if math.isfinite(worst):
+            target(max(-1e6, min(1e6, -worst)), label="smallest guarantee margin")
+        if run.violated is not None:
+            check = confirm(theorem, chooser.script, run, opts)
+            if check:
+                count["first"] = count["first"] or count["examples"]
+                raise _Found(run, check, chooser.script)
+
+    db = DirectoryBasedExampleDatabase(str(opts.database)) if opts.database else None
+    test = settings(max_examples=opts.max_examples, database=db, deadline=None, derandomize=False,
+                    verbosity=Verbosity.quiet, report_multiple_bugs=False, print_blob=False,
+                    suppress_health_check=list(HealthCheck))(given(st.data())(one_run))
+    test = fixed_seed(opts.seed)(test)
+    test._hypothesis_internal_database_key = hashlib.sha256(  # one database entry per model
+        f"{theorem.content_hash}/{opts.digest()}".encode()).digest()
+    try:
+        test()
+    except _Found as found:
+        return Falsification(theorem.name, True, count["first"], time.perf_counter() - start,
+                             found.run, found.check, found.script)
+    return Falsification(theorem.name, False, count["examples"], time.perf_counter() - start)
+
+
+def confirm(theorem: Theorem, script, run: Run, opts: Options) -> str:
+    """How a violating float run was re-checked, or "" if it could not be."""
+    exact = Interpreter(theorem, exact=True, max_steps=opts.max_steps, families=opts.families)
+    try:
+        if exact.run(Scripted(script)).violated is not None:
+            return "replayed in exact rational arithmetic"
+    except (Diverged, Inexact, Rejected, Blocked, ZeroDivisionError, OverflowError):
+        pass
+    last = run.checkpoints[-1]
+    worst = min(last.margins.values(), default=0.0)
+    scale = max([1.0] + [abs(v) for v in _numbers(last.state)])
+    tolerance = FLOAT_TOLERANCE * scale
+    if worst < -tolerance:
+        return f"floating point: violated by {-worst:.3g}, beyond the tolerance {tolerance:.1g}"
+    return ""
+
+
+def _numbers(state: dict[str, Any]):
+    for v in state.values():
+        if isinstance(v, dict):
+            yield from _numbers(v)
+        elif isinstance(v, float):
+            yield v
