@@ -40,6 +40,14 @@ class Chooser:
     def pick(self, what: str, n: int) -> int:
         return self.integer(what, 0, n - 1)
 
+    def pick_label(self, labels: tuple[str, ...]) -> int:
+        """Which alternative of a choice to try first."""
+        return self.pick("alternative", len(labels))
+
+    def havoc_value(self, target: str) -> Any:
+        """A value for `target := *` known in advance (replays), or None: decide later."""
+        return None
+
     def flag(self, what: str) -> bool:
         return self.integer(what, 0, 1) == 1
 

@@ -34,16 +34,25 @@ class Blocked(Exception):
     """No run through here: a test failed, an ODE's domain does not hold, 1/0."""
 
 
+OPEN = object()  # a cell made open again by `a[i] := *` in a table with a default
+
+
 class Table:
-    """The cells of an array or family that have values; a missing cell is still open."""
+    """The cells of an array or family that have values; a missing cell is still open,
+    unless the table has a default (arrays replayed from a solver's model)."""
 
-    __slots__ = ("cells",)
+    __slots__ = ("cells", "default")
 
-    def __init__(self, cells: dict[tuple, Any] | None = None) -> None:
+    def __init__(self, cells: dict[tuple, Any] | None = None, default: Any = None) -> None:
         self.cells = cells if cells is not None else {}
+        self.default = default
 
     def copy(self) -> "Table":
-        return Table(dict(self.cells))
+        return Table(dict(self.cells), self.default)
+
+    def read(self, key: tuple) -> Any:
+        value = self.cells.get(key, self.default)
+        return None if value is OPEN else value
 
     def __repr__(self) -> str:
         return f"Table({self.cells})"
@@ -99,10 +108,10 @@ class Compiler:
 
             def cell(s):
                 key = tuple(_index(i(s)) for i in idx)
-                try:
-                    return s[name].cells[key]
-                except KeyError:
-                    raise NeedValue((name, key), sort) from None
+                value = s[name].read(key)
+                if value is None:
+                    raise NeedValue((name, key), sort)
+                return value
             return cell
         args = [c(a) for a in n.args]
         if op == "+":

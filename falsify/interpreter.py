@@ -24,7 +24,7 @@ from certiloop.models.terms import BOOL, INT, ModelError, Node, free_vars
 from certiloop.models.theorem import Theorem
 
 from .choosers import Chooser
-from .evaluate import Blocked, Compiler, NeedValue, Table, margin, universe
+from .evaluate import OPEN, Blocked, Compiler, NeedValue, Table, margin, universe
 from .flows import Flow
 
 HORIZON = 10.0  # longest duration of an ODE without a time bound in its domain
@@ -93,14 +93,22 @@ class Interpreter:
         self._flows: dict[int, Flow] = {}
 
     # ------------------------------------------------------------------ a run
-    def run(self, chooser: Chooser) -> Run:
+    def run(self, chooser: Chooser, initial: dict[str, Any] | None = None,
+            checked: bool = False) -> Run:
+        """One run; from `initial` (which must satisfy the assumptions, unless the caller
+        `checked` that exactly already) or from a drawn state."""
         from .initial import initial_state
 
         self.chooser, self.out = chooser, Run()
         self.path: list[str] = []
         self.time: Any = 0
         self.step = 0
-        state = initial_state(self, chooser)
+        if initial is None:
+            state = initial_state(self, chooser)
+        else:
+            state = copy_state(initial)
+            if not checked and not self._holds(self.c(self.theorem.assumptions), state):
+                raise Rejected("the given state does not satisfy the assumptions")
         try:
             if self.top is None or self.top is not self.theorem.program:
                 self._exec(self.theorem.program, state)
@@ -183,7 +191,7 @@ class Interpreter:
 
     def _choice(self, p: Choice, s: dict[str, Any]) -> None:
         n = len(p.alternatives)
-        first = self.chooser.pick("alternative", n) if n > 1 else 0
+        first = self.chooser.pick_label(p.labels) if n > 1 else 0
         for k in range(n):
             at = (first + k) % n
             self.path.append(p.labels[at])
@@ -248,6 +256,13 @@ class Interpreter:
 
     # ------------------------------------------------------------------ open values
     def _open(self, target: Node, s: dict[str, Any]) -> None:
+        given = self.chooser.havoc_value(str(target))
+        if given is not None:  # a replay that knows the value
+            if target.op == "var" and target.sort.is_array:
+                s[target.payload] = given
+            else:
+                store(s, target, given, self)
+            return
         if target.op == "var":
             if target.sort.is_array:
                 s[target.payload] = Table()
@@ -256,7 +271,10 @@ class Interpreter:
             return
         name, idx = cell_of(target, s, self)
         table = s.setdefault(name, Table())
-        table.cells.pop(idx, None)
+        if table.default is None:
+            table.cells.pop(idx, None)
+        else:
+            table.cells[idx] = OPEN
 
     def _value(self, fn, s: dict[str, Any]) -> Any:
         """Evaluate a term; open values it reads are chosen freely."""
@@ -432,7 +450,7 @@ def get(s: dict[str, Any], key) -> Any:
     if isinstance(key, str):
         return s.get(key)
     table = s.get(key[0])
-    return table.cells.get(key[1]) if isinstance(table, Table) else None
+    return table.read(key[1]) if isinstance(table, Table) else None
 
 
 def remove(s: dict[str, Any], key) -> None:
@@ -454,7 +472,8 @@ def snapshot(s: dict[str, Any]) -> dict[str, Any]:
         if name.startswith("#") or "@" in name or isinstance(value, range):
             continue
         if isinstance(value, Table):
-            out[name] = {",".join(map(str, k)): _plain(v) for k, v in sorted(value.cells.items())}
+            out[name] = {",".join(map(str, k)): _plain(v) for k, v in sorted(value.cells.items())
+                         if v is not OPEN}
         else:
             out[name] = _plain(value)
     return out

@@ -11,7 +11,7 @@ the assumptions plus the nondeterministic choices and durations of a violating r
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
@@ -37,6 +37,10 @@ class Step:
     path: str  # the choices taken so far, e.g. "ctrl1 loop iteration 1 / past boundary, towards"
     what: str  # "fyp := -1", "ODE for 1 s"
     state: dict[str, str]  # the theorem's symbols after the statement
+    # for an independent replay (falsify.replay): what was decided here, with the raw value
+    kind: str = "assign"  # assign | havoc | ode | choice
+    target: str = ""  # the assigned symbol or cell, or the choice's label
+    value: Any = None  # havoc: the value chosen; ode: the duration
 
     def to_json(self) -> dict[str, Any]:
         return {"path": self.path, "what": self.what, "state": self.state}
@@ -50,10 +54,16 @@ class Refutation:
     violated: str  # the guarantee and its value at the end
     check: str
     seconds: float
+    raw_initial: dict[str, Any] = field(default_factory=dict)  # exact values, for replays
+
+    @property
+    def shown(self) -> list[Step]:
+        """The steps a reader wants (choices are visible in the paths)."""
+        return [s for s in self.trace if s.kind != "choice"]
 
     def to_json(self) -> dict[str, Any]:
         return {"depth": self.depth, "initial": self.initial,
-                "trace": [s.to_json() for s in self.trace], "violated": self.violated,
+                "trace": [s.to_json() for s in self.shown], "violated": self.violated,
                 "check": self.check, "seconds": round(self.seconds, 4)}
 
 
@@ -107,7 +117,7 @@ def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
             return None, f"BUG: the solver's run at depth {depth} does not replay"
         # the model may hold live z3 handles (array lookups): keep only plain text
         return Refutation(depth, replay.start, trace, f"{theorem.guarantee} is false at the end",
-                          check, time.perf_counter() - start), ""
+                          check, time.perf_counter() - start, replay.raw_start), ""
     return None, why
 
 
@@ -150,6 +160,7 @@ class Replay:
         for name, sym in program_symbols(program).items():
             state.setdefault(name, _zero(sym.sort))
         self.start = self._show(state)
+        self.raw_start = {k: plain(v) for k, v in state.items() if "@" not in k}
         return self._exec(program, state, (), [], self._at_end)
 
     def _at_end(self, state, path, steps):
@@ -167,7 +178,8 @@ class Replay:
             # a choice absent from the solver's formula cannot matter; 0 stands in for it
             value = self.model.get(self.record.get(id(p), ""), _zero(p.target.sort))
             new = _assign(state, p.target, value)
-            step = Step(" / ".join(path), f"{p.target} := {show_value(value)}", self._show(new))
+            step = Step(" / ".join(path), f"{p.target} := {show_value(value)}", self._show(new),
+                        "havoc", str(p.target), plain(value))
             return k(new, path, steps + [step])
         if isinstance(p, Test):
             return k(state, path, steps) if truth(p.cond, state) is True else None
@@ -176,7 +188,8 @@ class Replay:
         if isinstance(p, Choice):
             for label, alt in zip(p.labels, p.alternatives):
                 # the label scopes the branch only; what follows the choice is back at `path`
-                found = self._exec(alt, state, path + (label,), steps,
+                taken = Step(" / ".join(path + (label,)), f"choose {label}", {}, "choice", label)
+                found = self._exec(alt, state, path + (label,), steps + [taken],
                                    lambda st, _pa, sp: k(st, path, sp))
                 if found is not None:
                     return found
@@ -194,7 +207,8 @@ class Replay:
             new = dict(state)
             for var, x in sol.items():
                 new[var] = evaluate(substitute(x, {s.payload: tau}), env)
-            step = Step(" / ".join(path), f"follow the ODE for {show_value(duration)} s", self._show(new))
+            step = Step(" / ".join(path), f"follow the ODE for {show_value(duration)} s", self._show(new),
+                        "ode", "", plain(duration))
             return k(new, path, steps + [step])
         raise TypeError(p)
 
@@ -203,6 +217,13 @@ class Replay:
             return k(state, path, steps)
         return self._exec(parts[0], state, path, steps,
                           lambda st, pa, sp: self._seq(parts[1:], st, pa, sp, k))
+
+
+def plain(value: Any) -> Any:
+    """A value without live solver handles (so it can cross processes)."""
+    if isinstance(value, ArrayValue):
+        return ArrayValue(dict(value.entries), value.default)
+    return value
 
 
 def _zero(sort) -> Any:

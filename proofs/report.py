@@ -61,7 +61,7 @@ def show_refutation(console: Console, result: TheoremResult) -> None:
     console.print("    start: " + ", ".join(f"{k} = {v}" for k, v in ref.initial.items()), highlight=False,
                   markup=False)
     previous = dict(ref.initial)
-    for step in ref.trace:
+    for step in ref.shown:
         changed = {k: v for k, v in step.state.items() if previous.get(k) != v}
         previous = step.state
         where = f"[{step.path}] " if step.path else ""
