@@ -60,7 +60,8 @@ class HypothesisChooser(Chooser):
         from hypothesis import strategies as st
 
         self.data, self.st = data, st
-        self._real = st.floats(-REAL_RANGE, REAL_RANGE, allow_nan=False, allow_infinity=False)
+        self._real = st.floats(-REAL_RANGE, REAL_RANGE, allow_nan=False, allow_infinity=False,
+                               allow_subnormal=False)
         self._slack = st.one_of(st.just(0.0), st.floats(0.0, REAL_RANGE))
         self._strict_slack = st.one_of(st.just(1.0), st.floats(1e-3, REAL_RANGE))
         self._fraction = st.one_of(st.just(1.0), st.floats(0.0, 1.0))

@@ -106,17 +106,34 @@ class Compiler:
                 raise ModelError(f"cannot execute the array expression `{root}`")
             name, sort = root.payload, n.sort
 
-            def cell(s):
+            if len(idx) == 1:  # families over one index sort: the common, hot case
+                only = idx[0]
+
+                def cell(s):
+                    key = (_index(only(s)),)
+                    value = s[name].read(key)
+                    if value is None:
+                        raise NeedValue((name, key), sort)
+                    return value
+                return cell
+
+            def cells(s):
                 key = tuple(_index(i(s)) for i in idx)
                 value = s[name].read(key)
                 if value is None:
                     raise NeedValue((name, key), sort)
                 return value
-            return cell
+            return cells
         args = [c(a) for a in n.args]
         if op == "+":
+            if len(args) == 2:
+                a, b = args
+                return lambda s: a(s) + b(s)
             return lambda s: sum((a(s) for a in args[1:]), args[0](s))
         if op == "*":
+            if len(args) == 2:
+                a, b = args
+                return lambda s: a(s) * b(s)
             def product(s):
                 out = args[0](s)
                 for a in args[1:]:
@@ -262,6 +279,8 @@ def _near(equal: bool, a: Fn, b: Fn) -> Fn:
 
 def _index(x: Any) -> Any:
     """Array indices are ints (index elements, integer counters); 2.0 reads cell 2."""
+    if type(x) is int:
+        return x
     if isinstance(x, bool):
         return x
     if isinstance(x, (float, Fraction)):

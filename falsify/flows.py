@@ -22,6 +22,7 @@ from .evaluate import Blocked, Compiler, margin
 
 GRID = 64  # samples when locating where a closed-form flow leaves its domain
 WATCH_SAMPLES = 33  # samples along a flow for the guarantee's margins (plots, targeting)
+MAX_RHS_CALLS = 20_000  # a stiff flow (a gain of 1e300) is given up, not followed for hours
 RTOL, ATOL = 1e-7, 1e-9  # found runs are re-checked, so search favours speed
 
 
@@ -101,15 +102,25 @@ class Flow:
                 work[name] = float(value)
             return work
 
+        calls = [0]
+
         def f(_t, y):
+            calls[0] += 1
+            if calls[0] > MAX_RHS_CALLS:
+                raise Blocked(f"the flow is too stiff to follow ({MAX_RHS_CALLS} steps)")
             return [r(put(y)) for r in rhs]
 
         def leaves(_t, y):
             return self.domain(put(y))
         leaves.terminal, leaves.direction = True, -1
         y0 = [float(state[n]) for n in names]
-        sol = solve_ivp(f, (0.0, horizon), y0, events=leaves, dense_output=True, rtol=RTOL, atol=ATOL)
-        if sol.status == -1:
+        try:
+            with np.errstate(all="ignore"):  # a blow-up is detected below, not printed
+                sol = solve_ivp(f, (0.0, horizon), y0, events=leaves, dense_output=True, rtol=RTOL,
+                                atol=ATOL)
+        except (ValueError, OverflowError) as exc:  # event location on a blown-up solution
+            raise Blocked(f"integration failed: {exc}") from None
+        if sol.status == -1 or not np.all(np.isfinite(sol.y)):
             raise Blocked(f"integration failed: {sol.message}")
         longest = float(sol.t_events[0][0]) if len(sol.t_events[0]) else float(sol.t[-1])
 
@@ -146,7 +157,10 @@ def _last_inside(g, start: float, end: float, depth: int) -> float:
         t = float(t)
         if g(t) < 0:
             if g(previous) > 0:
-                root = brentq(g, previous, t, xtol=1e-14)
+                try:
+                    root = brentq(g, previous, t, xtol=1e-14)
+                except ValueError:  # g overflowed to inf/nan between the samples
+                    return previous
                 return root if g(root) >= 0 else previous + (root - previous) * (1 - 1e-9)
             if previous == start and depth < 8:
                 return _last_inside(g, start, t, depth + 1)

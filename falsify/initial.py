@@ -161,7 +161,7 @@ def _scale(interp, atom: Node, fn, leaves, s) -> bool:
             put(s, k, old[k])
         return False
     degree = math.log2(abs(doubled / have)) if doubled else 0
-    if degree <= 0 or abs(degree - round(degree)) > 1e-9:
+    if not math.isfinite(degree) or degree <= 0 or abs(degree - round(degree)) > 1e-9:
         for k in leaves:
             put(s, k, old[k])
         return False

@@ -58,7 +58,8 @@ class Checkpoint:
 @dataclass
 class Run:
     checkpoints: list[Checkpoint] = field(default_factory=list)
-    samples: list[tuple[float, dict[str, float]]] = field(default_factory=list)  # along flows
+    # along flows: (model time, guarantee margins, scalar state) for plots
+    samples: list[tuple[float, dict[str, float], dict[str, float]]] = field(default_factory=list)
     step_starts: list[float] = field(default_factory=list)  # model time at each control step
     violated: str | None = None  # the guarantee part that failed, with its margin
 
@@ -121,7 +122,7 @@ class Interpreter:
         return self.out
 
     def _checkpoint(self, s: dict[str, Any]) -> None:
-        holds = self._holds(self.guarantee, s)
+        holds = bool(self._value(self.guarantee, s))  # values still open: any will do
         margins = self.margins(s)
         self.out.checkpoints.append(Checkpoint(self.step, float(self.time), self.path, snapshot(s), margins))
         self.path = []
@@ -241,7 +242,9 @@ class Interpreter:
         watch = self._worst if self.top is not None else None
         end, tau, samples = flow.run(s, self.chooser.duration, self.horizon, watch)
         for t, st in samples:
-            self.out.samples.append((float(self.time) + float(t), self.margins(st)))
+            scalars = {k: float(v) for k, v in st.items()
+                       if isinstance(v, (float, Fraction)) and "@" not in k}
+            self.out.samples.append((float(self.time) + float(t), self.margins(st), scalars))
         self.time = self.time + tau
         s.update(end)
 
@@ -483,5 +486,5 @@ def _plain(v: Any) -> Any:
     if isinstance(v, bool) or isinstance(v, int):
         return v
     if isinstance(v, (float, Fraction)):
-        return float(f"{float(v):.9g}")
+        return float(f"{float(v):.9g}") + 0.0  # + 0.0 turns -0.0 into 0.0
     return str(v)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import math
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -28,6 +29,8 @@ from .evaluate import Blocked
 from .flows import Inexact
 from .interpreter import Interpreter, Rejected, Run
 
+SHRINK_SECONDS = 15  # hypothesis shrinks for up to 5 minutes by default; a trace this
+# short is readable, and CI must not wait minutes for a smaller one
 FLOAT_TOLERANCE = 1e-6  # relative: a float-only violation must be deeper than this
 DEFAULT_DATABASE = Path(".certiloop") / "hypothesis"
 
@@ -39,6 +42,7 @@ class Options:
     families: tuple[int, int] = (1, 8)
     max_steps: int = 3
     database: Path | None = DEFAULT_DATABASE
+    shrink: bool = True  # False: report the first violating run as found (benchmarks)
 
     def digest(self) -> str:
         return f"{self.families}/{self.max_steps}"
@@ -75,7 +79,7 @@ class _Found(Exception):
 
 
 def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
-    from hypothesis import HealthCheck, Verbosity, given, reject, settings, target
+    from hypothesis import HealthCheck, Phase, Verbosity, given, reject, settings, target
     from hypothesis import seed as fixed_seed
     from hypothesis import strategies as st
     from hypothesis.database import DirectoryBasedExampleDatabase
@@ -90,30 +94,53 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
         chooser = Recording(HypothesisChooser(data))
         try:
             run = interp.run(chooser)
-        except (Rejected, Blocked):
+        except (Rejected, Blocked, ArithmeticError):  # overflow: values beyond the models' scale
             reject()
         worst = run.worst
         if math.isfinite(worst):
             target(max(-1e6, min(1e6, -worst)), label="smallest guarantee margin")
         if run.violated is not None:
-            check = confirm(theorem, chooser.script, run, opts)
+            # a violation far beyond rounding needs no exact replay while hypothesis shrinks;
+            # the reported run is replayed exactly once at the end
+            check = "deep" if _deep(run) else confirm(theorem, chooser.script, run, opts)
             if check:
                 count["first"] = count["first"] or count["examples"]
                 raise _Found(run, check, chooser.script)
 
     db = DirectoryBasedExampleDatabase(str(opts.database)) if opts.database else None
-    test = settings(max_examples=opts.max_examples, database=db, deadline=None, derandomize=False,
+    phases = list(Phase) if opts.shrink else [p for p in Phase if p != Phase.shrink]
+    test = settings(max_examples=opts.max_examples, database=db, deadline=None, phases=phases,
+                    derandomize=False,
                     verbosity=Verbosity.quiet, report_multiple_bugs=False, print_blob=False,
                     suppress_health_check=list(HealthCheck))(given(st.data())(one_run))
     test = fixed_seed(opts.seed)(test)
     test._hypothesis_internal_database_key = hashlib.sha256(  # one database entry per model
         f"{theorem.content_hash}/{opts.digest()}".encode()).digest()
     try:
-        test()
+        with _shrink_budget(SHRINK_SECONDS):
+            test()
     except _Found as found:
+        check = found.check if found.check != "deep" else confirm(theorem, found.script, found.run, opts)
         return Falsification(theorem.name, True, count["first"], time.perf_counter() - start,
-                             found.run, found.check, found.script)
+                             found.run, check, found.script)
     return Falsification(theorem.name, False, count["examples"], time.perf_counter() - start)
+
+
+@contextmanager
+def _shrink_budget(seconds: float):
+    """Bound hypothesis's shrinking time. Hypothesis has no public setting for it; its
+    engine reads this module constant when shrinking starts. Without it (another
+    hypothesis version) shrinking just takes its default time."""
+    from hypothesis.internal.conjecture import engine
+
+    old = getattr(engine, "MAX_SHRINKING_SECONDS", None)
+    if old is not None:
+        engine.MAX_SHRINKING_SECONDS = seconds
+    try:
+        yield
+    finally:
+        if old is not None:
+            engine.MAX_SHRINKING_SECONDS = old
 
 
 def confirm(theorem: Theorem, script, run: Run, opts: Options) -> str:
@@ -124,13 +151,22 @@ def confirm(theorem: Theorem, script, run: Run, opts: Options) -> str:
             return "replayed in exact rational arithmetic"
     except (Diverged, Inexact, Rejected, Blocked, ZeroDivisionError, OverflowError):
         pass
-    last = run.checkpoints[-1]
-    worst = min(last.margins.values(), default=0.0)
-    scale = max([1.0] + [abs(v) for v in _numbers(last.state)])
-    tolerance = FLOAT_TOLERANCE * scale
+    worst, tolerance = _depth(run)
     if worst < -tolerance:
         return f"floating point: violated by {-worst:.3g}, beyond the tolerance {tolerance:.1g}"
     return ""
+
+
+def _depth(run: Run) -> tuple[float, float]:
+    """The smallest guarantee margin at the end of the run, and the float tolerance."""
+    last = run.checkpoints[-1]
+    worst = min(last.margins.values(), default=0.0)
+    return worst, FLOAT_TOLERANCE * max([1.0] + [abs(v) for v in _numbers(last.state)])
+
+
+def _deep(run: Run) -> bool:
+    worst, tolerance = _depth(run)
+    return worst < -tolerance
 
 
 def _numbers(state: dict[str, Any]):

@@ -45,6 +45,28 @@ def build_parser() -> argparse.ArgumentParser:
                        help="worker processes (default: number of cores)")
     prove.add_argument("-v", "--verbose", action="store_true", help="list every obligation")
 
+    falsify = sub.add_parser(
+        "falsify", help="search for a run that violates the guarantee (hypothesis)",
+        description="Run MODEL(s) in the interpreter on initial states, choices and durations that "
+        "hypothesis draws and steers towards small safety margins, until a run violates the "
+        "guarantee; the run is shrunk, re-checked, printed and optionally plotted. Exit 0 if no "
+        "counterexample was found, 1 if one was.")
+    falsify.add_argument("models", nargs="+", metavar="MODEL",
+                         help="library name (sbs.eqn12) or path/to/file.py:theorem")
+    falsify.add_argument("--max-examples", metavar="N", type=int, default=2000,
+                         help="runs to try per model (default 2000)")
+    falsify.add_argument("--seed", metavar="S", type=int, default=0, help="random seed (default 0)")
+    falsify.add_argument("--json", metavar="F", help="write the result with the full trace as JSON to F "
+                         "('-' for stdout)")
+    falsify.add_argument("--plot", metavar="F.png", help="plot the run: margins over time and the tool path")
+    falsify.add_argument("--max-family", metavar="N", type=int, default=8,
+                         help="largest family of boundaries to try (default 8)")
+    falsify.add_argument("--steps", metavar="N", type=int, default=3,
+                         help="most control-loop iterations per run (default 3)")
+    falsify.add_argument("--database", metavar="DIR", default=".certiloop/hypothesis",
+                         help="hypothesis example database, so failures are found again first "
+                         "(default .certiloop/hypothesis; 'none' to disable)")
+
     gate = sub.add_parser(
         "gate", help="check every model against its expected verdict (for CI)",
         description="Prove each MODEL (default: the whole library) and compare with the verdict "
@@ -98,6 +120,8 @@ def _main(argv: list[str] | None) -> int:
         return cmd_prove(args)
     if args.command == "gate":
         return cmd_gate(args)
+    if args.command == "falsify":
+        return cmd_falsify(args)
     raise BadInput(f"unknown command {args.command}")  # pragma: no cover
 
 
@@ -198,6 +222,8 @@ def cmd_prove(args: argparse.Namespace) -> int:
             else:
                 result = prover.prove(theorem, smtlib_dir=smt_dir)
             show_result(out, result, verbose=args.verbose)
+            if result.refutation is not None:
+                result.extra["replay"] = _replay(out, theorem, result.refutation)
             results.append(result)
     if args.json:
         payload = results[0].to_json() if len(results) == 1 else [r.to_json() for r in results]
@@ -208,6 +234,73 @@ def cmd_prove(args: argparse.Namespace) -> int:
             Path(args.json).write_text(text + "\n")
     all_proved = all(o.verdict == "proved" for r in results for o in r.obligations)
     return EXIT_OK if all_proved else EXIT_FAILED
+
+
+def _replay(out, theorem, refutation) -> dict:
+    """Replay a prover counterexample in the interpreter; a failure is a certiloop bug."""
+    from certiloop.falsify.replay import replay_refutation
+
+    outcome = replay_refutation(theorem, refutation)
+    if outcome.violated:
+        out.print(f"  interpreter replay: {outcome.message}", highlight=False, markup=False)
+    else:
+        out.print(f"  [bold red]BUG: the prover's counterexample does not replay[/] — {outcome.message}. "
+                  "Please report this to the certiloop developers.", highlight=False)
+    return outcome.to_json()
+
+
+def cmd_falsify(args: argparse.Namespace) -> int:
+    if args.max_examples < 1:
+        raise BadInput(f"--max-examples must be at least 1, got {args.max_examples}")
+    if args.max_family < 1:
+        raise BadInput(f"--max-family must be at least 1, got {args.max_family}")
+    if args.steps < 1:
+        raise BadInput(f"--steps must be at least 1, got {args.steps}")
+    if args.plot and not args.plot.lower().endswith(".png"):
+        raise BadInput(f"--plot writes a PNG file; give a name ending in .png, not {args.plot!r}")
+    if args.plot:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise BadInput("--plot needs matplotlib: pip install 'certiloop[plot]'") from None
+    from certiloop.proofs.loading import load
+
+    theorems = [load(spec) for spec in args.models]
+
+    from rich.console import Console
+
+    from certiloop.falsify.report import show_falsification
+    from certiloop.falsify.search import Options, falsify
+
+    database = None if args.database.lower() == "none" else Path(args.database)
+    opts = Options(max_examples=args.max_examples, seed=args.seed, families=(1, args.max_family),
+                   max_steps=args.steps, database=database)
+    out, err = console(stderr=args.json == "-"), Console(stderr=True)
+    results = []
+    for theorem in theorems:
+        if err.is_terminal:
+            with err.status(f"falsifying {theorem.name} (up to {args.max_examples} examples)"):
+                result = falsify(theorem, opts)
+        else:
+            result = falsify(theorem, opts)
+        show_falsification(out, result)
+        if args.plot and result.run is not None:
+            from certiloop.falsify.plots import plot_run
+
+            target = Path(args.plot)
+            if len(theorems) > 1:
+                target = target.with_name(f"{target.stem}-{theorem.name}{target.suffix}")
+            plot_run(result.run, theorem.name, target)
+            out.print(f"  plot: {target}", highlight=False, markup=False)
+        results.append(result)
+    if args.json:
+        payload = results[0].to_json() if len(results) == 1 else [r.to_json() for r in results]
+        text = json.dumps(payload, indent=2)
+        if args.json == "-":
+            print(text)
+        else:
+            Path(args.json).write_text(text + "\n")
+    return EXIT_FAILED if any(r.found for r in results) else EXIT_OK
 
 
 if __name__ == "__main__":  # pragma: no cover

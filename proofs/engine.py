@@ -45,6 +45,7 @@ class TheoremResult:
             "reason": self.reason,
             "counterexample": self.refutation.to_json() if self.refutation else None,
             "obligations": [o.to_json() for o in self.obligations],
+            **self.extra,
         }
 
 

@@ -1,0 +1,169 @@
+"""The interpreter and the falsifier: runs, counterexamples found and re-checked, nothing
+found for proved designs, prover counterexamples replayed independently."""
+
+import json
+import math
+
+import pytest
+
+from certiloop.falsify.choosers import RandomChooser, Recording, Scripted
+from certiloop.falsify.interpreter import Interpreter, Rejected
+from certiloop.falsify.replay import replay_refutation
+from certiloop.falsify.search import Options, falsify
+from certiloop.models import library
+from certiloop.models.programs import assign, havoc, loop, ode, seq
+from certiloop.models.programs import test as check
+from certiloop.models.terms import And, Reals
+from certiloop.models.theorem import Theorem
+from certiloop.proofs.refute import refute
+
+REFUTED = [n for n in library.names() if library.get(n).expected == "refuted"]
+PROVED_SBS = ["sbs.ctrl1", "sbs.ctrl2_2d", "sbs.ctrl2"]
+
+
+def _search(name, **kw):
+    return falsify(library.get(name), Options(seed=0, database=None, **kw))
+
+
+# ------------------------------------------------------------------ interpreter
+
+
+def test_open_values_are_solved_from_the_test_that_pins_them():
+    x, y, G = Reals("x y G")
+    th = Theorem("t.div", And(G > 0, x == 0), seq(havoc(y), check(y * G == 1), assign(x, y * G)),
+                 x == 1, expected="proved")
+    run = Interpreter(th).run(RandomChooser(1))
+    last = run.checkpoints[-1].state
+    assert run.violated is None and last["x"] == pytest.approx(1)
+    assert last["y"] == pytest.approx(1 / last["G"])
+
+
+def test_flows_follow_the_exact_solution_and_stop_at_the_domain_edge():
+    h, v, g = Reals("h v g")
+    fall = ode({h: v, v: -g}, h >= 0)
+    th = Theorem("t.fall", And(h == 2, v == 0, g == 1), loop(fall), h >= 0, expected="proved")
+    interp = Interpreter(th, max_steps=1)
+    for seed in range(20):
+        run = interp.run(RandomChooser(seed))
+        end = run.checkpoints[-1]
+        # h(t) = 2 - t²/2 leaves h >= 0 at t = 2
+        assert 0 <= end.time <= 2 + 1e-9
+        assert end.state["h"] == pytest.approx(2 - end.time**2 / 2, abs=1e-7)  # the trace keeps 9 digits
+
+
+def test_non_polynomial_flows_are_integrated_with_events():
+    x, = Reals("x")
+    th = Theorem("t.decay", x == 1, loop(ode({x: -x}, x >= 0.5)), x >= 0.5, expected="proved")
+    interp = Interpreter(th, max_steps=1)
+    times = [interp.run(RandomChooser(s)).checkpoints[-1] for s in range(10)]
+    for c in times:
+        assert c.state["x"] == pytest.approx(math.exp(-c.time), rel=1e-5)
+        assert c.time <= math.log(2) + 1e-6
+
+
+def test_a_recorded_run_replays_exactly():
+    th = library.get("textbook.water_tank_late_check")
+    rec = Recording(RandomChooser(3))
+    run = Interpreter(th).run(rec)
+    exact = Interpreter(th, exact=True).run(Scripted(rec.script))
+    assert len(exact.checkpoints) == len(run.checkpoints)
+    assert exact.checkpoints[-1].state["x"] == pytest.approx(run.checkpoints[-1].state["x"])
+
+
+def test_initial_states_satisfy_the_assumptions_or_are_rejected():
+    th = library.get("sbs.ctrl2")
+    interp = Interpreter(th, max_steps=1)
+    accepted = 0
+    for seed in range(30):
+        try:
+            run = interp.run(RandomChooser(seed))
+        except Rejected:
+            continue
+        accepted += 1
+        start = run.checkpoints[0].state
+        for j, nx in start["nx"].items():
+            n2 = nx**2 + start["ny"][j] ** 2 + start["nz"][j] ** 2
+            assert n2 == pytest.approx(1)
+    assert accepted >= 20
+
+
+# ------------------------------------------------------------------ search
+
+
+@pytest.mark.parametrize("name", REFUTED)
+def test_every_refuted_model_is_falsified(name):
+    result = _search(name, max_examples=2000)
+    assert result.found, f"{name}: no counterexample in {result.examples} examples"
+    assert result.check, "a reported counterexample must have been re-checked"
+    assert result.run.checkpoints[-1].margins and min(result.run.checkpoints[-1].margins.values()) < 0
+
+
+def test_eqn12_counterexample_has_planes_at_an_acute_angle():
+    result = _search("sbs.eqn12", max_examples=2000)
+    s = result.run.checkpoints[-1].state
+    assert s["nix"] * s["njx"] + s["niy"] * s["njy"] < 0
+
+
+def test_immediate_control_crosses_the_buffer_within_one_step():
+    result = _search("sbs.immediate", max_examples=2000)
+    before, after = result.run.checkpoints[-2], result.run.checkpoints[-1]
+    assert before.state["py"] >= 0 > after.state["py"]
+    assert after.step == before.step + 1 and after.time - before.time <= after.state["e"] + 1e-12
+
+
+@pytest.mark.parametrize("name", PROVED_SBS)
+def test_proved_designs_have_no_counterexample_in_2000_examples(name):
+    result = _search(name, max_examples=2000, families=(1, 8))
+    assert not result.found, result.run and result.run.violated
+    assert result.examples >= 2000
+
+
+def test_float_noise_at_a_boundary_is_not_a_counterexample():
+    # the bouncing ball lands on h = 0 by root finding (h = ±1e-16): never reported
+    result = _search("textbook.bouncing_ball", max_examples=500)
+    assert not result.found
+
+
+# ------------------------------------------------------------------ replay of the prover
+
+
+@pytest.mark.parametrize("name", REFUTED)
+def test_prover_counterexamples_replay_in_the_interpreter(name):
+    theorem = library.get(name)
+    refutation, why = refute(theorem, 60)
+    assert refutation is not None, why
+    outcome = replay_refutation(theorem, refutation)
+    assert outcome.violated, outcome.message
+
+
+def test_a_tampered_counterexample_does_not_replay():
+    theorem = library.get("textbook.water_tank_late_check")
+    refutation, _ = refute(theorem, 30)
+    refutation.raw_initial = {**refutation.raw_initial, "x": refutation.raw_initial["lo"]}  # far from hi
+    assert not replay_refutation(theorem, refutation).violated
+
+
+# ------------------------------------------------------------------ CLI
+
+
+def test_cli_falsify_json_plot_and_exit_codes(tmp_path):
+    from certiloop.proofs.cli import main
+
+    out_json, out_png = tmp_path / "f.json", tmp_path / "f.png"
+    code = main(["falsify", "textbook.water_tank_late_check", "--max-examples", "200",
+                 "--json", str(out_json), "--plot", str(out_png), "--database", str(tmp_path / "db")])
+    assert code == 1
+    data = json.loads(out_json.read_text())
+    assert data["model"] == "textbook.water_tank_late_check" and data["verdict"] == "refuted"
+    assert data["counterexample"]["trace"] and data["counterexample"]["violated"]
+    assert out_png.read_bytes()[:4] == b"\x89PNG"
+    assert main(["falsify", "textbook.water_tank", "--max-examples", "50", "--database", "none"]) == 0
+
+
+@pytest.mark.parametrize("argv", [["falsify", "sbs.nope"], ["falsify", "sbs.ctrl1", "--max-examples", "0"],
+                                  ["falsify", "sbs.ctrl1", "--plot", "x.pdf"]])
+def test_cli_falsify_bad_input_exits_2(argv, capsys):
+    from certiloop.proofs.cli import main
+
+    assert main(argv) == 2
+    assert capsys.readouterr().err.count("\n") == 1
