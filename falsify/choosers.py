@@ -99,6 +99,23 @@ class RandomChooser(Chooser):
         return 1.0 if self.rng.random() < 0.5 else self.rng.random()
 
 
+class FirstEnabled(Chooser):
+    """The runtime kernel's policy: the first enabled alternative in the model's order,
+    the first element of a family, Bool open values tried false first."""
+
+    def real(self, what):
+        return 0.0
+
+    def integer(self, what, lo, hi):
+        return lo
+
+    def slack(self, strict):
+        return 1.0 if strict else 0.0
+
+    def fraction(self):
+        return 1.0
+
+
 class Recording(Chooser):
     """Passes decisions through from another chooser and keeps them as a script."""
 

@@ -269,7 +269,8 @@ EQUAL_TOLERANCE = 1e-9  # relative; floats that landed on a boundary by root fin
 
 def _near(equal: bool, a: Fn, b: Fn) -> Fn:
     """Float equality up to rounding: a flow stopped at h = 0 by root finding ends at
-    h = 1e-16, and `?h = 0` must still see the ball on the ground. Runs found this way are
+    h = 1e-16, and `?h = 0` must still see the ball on the ground; a value pinned by
+    `?tmp*G = 1` satisfies it only up to rounding. Runs found this way are
     re-checked exactly (or by a margin far above this tolerance) before being reported."""
     def near(s):
         x, y = a(s), b(s)

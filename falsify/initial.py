@@ -123,8 +123,9 @@ def _repair(interp, atom: Node, env: dict, s, counts: Counter, chooser, done_edg
             return True
         if not numeric:
             return False
-        gap = interp.c(atom.args[0] - atom.args[1])
-        interp._value(gap, s)  # every value the atom reads gets one, to be moved below
+        lhs, rhs = interp.c(atom.args[0]), interp.c(atom.args[1])
+        interp._value(lhs, s)  # every value the atom reads gets one, to be moved below
+        interp._value(rhs, s)
         if _quiet(fn, s) and not edge:
             return True
         leaves = [k for k in dict.fromkeys(_leaves(interp, atom, env, s)) if _numeric(k, s)]
@@ -133,7 +134,8 @@ def _repair(interp, atom: Node, env: dict, s, counts: Counter, chooser, done_edg
         target = {">=": slack, ">": slack, "<=": -slack, "<": -slack, "==": 0, "!=": 1}[atom.payload]
         for key in leaves:
             old = get(s, key)
-            x = solve_linear(gap, key, s, interp.exact, interp.c.number(target))
+            x = solve_linear(lambda st: lhs(st) - rhs(st), lambda st: interp.c.number(target), key, s,
+                             interp.exact)
             if x is None:
                 continue
             if _is_int(interp, key):

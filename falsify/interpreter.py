@@ -62,6 +62,7 @@ class Run:
     samples: list[tuple[float, dict[str, float], dict[str, float]]] = field(default_factory=list)
     step_starts: list[float] = field(default_factory=list)  # model time at each control step
     violated: str | None = None  # the guarantee part that failed, with its margin
+    final: dict[str, Any] = field(default_factory=dict)  # the last checkpoint's state, unrounded
 
     @property
     def worst(self) -> float:
@@ -125,6 +126,7 @@ class Interpreter:
         holds = bool(self._value(self.guarantee, s))  # values still open: any will do
         margins = self.margins(s)
         self.out.checkpoints.append(Checkpoint(self.step, float(self.time), self.path, snapshot(s), margins))
+        self.out.final = copy_state(s)
         self.path = []
         if not holds:
             worst = min(margins, key=margins.get) if margins else str(self.theorem.guarantee)
@@ -324,7 +326,7 @@ class Interpreter:
         for atom in _conjuncts(cond):
             if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
                 continue
-            x = solve_linear(self.c(atom.args[0] - atom.args[1]), key, s, self.exact)
+            x = solve_linear(self.c(atom.args[0]), self.c(atom.args[1]), key, s, self.exact)
             if x is not None:
                 return x
         return None
@@ -341,28 +343,31 @@ def _keep_known(out: dict[str, float], label: str, fn, s) -> None:
         pass
 
 
-def solve_linear(g, key, s: dict[str, Any], exact: bool, target=0):
-    """x with g(x) = target if g is affine in the open value `key` (else None)."""
+def solve_linear(lhs, rhs, key, s: dict[str, Any], exact: bool):
+    """x with lhs(x) = rhs(x), if both sides are affine in the open value `key` (else None).
+    The sides are kept apart so that `x*G*X = 1` gives x = 1/(G*X) without cancellation."""
     old = get(s, key)
     try:
         values = []
         for x in (0, 1, 2):
             put(s, key, Fraction(x) if exact else float(x))
-            values.append(g(s))
+            values.append((lhs(s), rhs(s)))
     except (NeedValue, Blocked):
         return None
     finally:
         remove(s, key) if old is None else put(s, key, old)
-    g0, g1, g2 = values
-    slope = g1 - g0
+    (l0, r0), (l1, r1), (l2, r2) = values
+    slope_l, slope_r = l1 - l0, r1 - r0
+    if exact:
+        if l2 - l1 != slope_l or r2 - r1 != slope_r:
+            return None
+    elif (abs((l2 - l1) - slope_l) > 1e-9 * (1 + abs(slope_l))
+          or abs((r2 - r1) - slope_r) > 1e-9 * (1 + abs(slope_r))):
+        return None
+    slope = slope_l - slope_r
     if slope == 0:
         return None
-    if exact:
-        if g2 - g1 != slope:
-            return None
-    elif abs((g2 - g1) - slope) > 1e-9 * (1 + abs(slope)):
-        return None
-    return (target - g0) / slope
+    return (r0 - l0) / slope
 
 
 def _conjuncts(f: Node) -> list[Node]:

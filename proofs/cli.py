@@ -67,6 +67,14 @@ def build_parser() -> argparse.ArgumentParser:
                          help="hypothesis example database, so failures are found again first "
                          "(default .certiloop/hypothesis; 'none' to disable)")
 
+    extract = sub.add_parser(
+        "extract", help="generate runtime code from a verified model's controller",
+        description="Generate a numpy module computing the controller of MODEL (vectorised over "
+        "its family of boundaries) from the model's syntax tree. The module carries the model's "
+        "content hash; the kernel refuses to run with a model that changed since.")
+    extract.add_argument("model", metavar="MODEL", help="library name (sbs.ctrl2) or path/to/file.py:theorem")
+    extract.add_argument("-o", "--output", metavar="FILE", help="write the module to FILE (default: stdout)")
+
     gate = sub.add_parser(
         "gate", help="check every model against its expected verdict (for CI)",
         description="Prove each MODEL (default: the whole library) and compare with the verdict "
@@ -122,6 +130,8 @@ def _main(argv: list[str] | None) -> int:
         return cmd_gate(args)
     if args.command == "falsify":
         return cmd_falsify(args)
+    if args.command == "extract":
+        return cmd_extract(args)
     raise BadInput(f"unknown command {args.command}")  # pragma: no cover
 
 
@@ -247,6 +257,19 @@ def _replay(out, theorem, refutation) -> dict:
         out.print(f"  [bold red]BUG: the prover's counterexample does not replay[/] — {outcome.message}. "
                   "Please report this to the certiloop developers.", highlight=False)
     return outcome.to_json()
+
+
+def cmd_extract(args: argparse.Namespace) -> int:
+    from certiloop.kernel.extract import extract
+    from certiloop.proofs.loading import load
+
+    source = extract(load(args.model))
+    if args.output:
+        Path(args.output).write_text(source)
+        console(stderr=True).print(f"wrote {args.output}", highlight=False, markup=False)
+    else:
+        sys.stdout.write(source)
+    return EXIT_OK
 
 
 def cmd_falsify(args: argparse.Namespace) -> int:

@@ -1,0 +1,155 @@
+"""The virtual-fixture kernel: the verified ctrl2 controller, ready to call every period.
+
+    fixture = VirtualFixture([(point, normal), ...], gain=G, buffer=D, period=eps)
+    k, velocity = fixture.step(p, f, fp)      # velocity = G * k * f
+
+The gain comes from `ctrl2.py`, the code `certiloop extract sbs.ctrl2` generated from the
+proved model; a runtime monitor (monitor.py) checks inputs, command and measured motion
+and commands the safe fallback k = 0 whenever something is off. Never NaN, never an
+unchecked command. Imports numpy only.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from . import ctrl2, monitor
+
+
+@dataclass
+class Command:
+    k: float
+    velocity: np.ndarray
+    ok: bool = True  # False: the fallback was commanded
+    reason: str = ""  # why the fallback was commanded
+    distances: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def __iter__(self):  # k, velocity = fixture.step(...)
+        return iter((self.k, self.velocity))
+
+
+class VirtualFixture:
+    """Forbidden-region virtual fixture over a set of planes, each given by a point on it
+    and its unit normal pointing to the safe side."""
+
+    def __init__(self, planes: Iterable[tuple[Sequence[float], Sequence[float]]] = (), *, gain: float,
+                 buffer: float, period: float, check_model: bool = True,
+                 position_tolerance: float = 1e-6) -> None:
+        self.gain, self.buffer, self.period = float(gain), float(buffer), float(period)
+        self.position_tolerance = position_tolerance
+        self._ids: list[int] = []
+        self._points = np.zeros((0, 3))
+        self._normals = np.zeros((0, 3))
+        self._next_id = 0
+        self._previous = None  # (p, f, fp, k) of the last step, for the plant monitor
+        self._position = None
+        if check_model:
+            _check_extracted()
+        for point, normal in planes:
+            self._append(point, normal)
+
+    # ------------------------------------------------------------------ planes
+    @property
+    def planes(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+        return {i: (p.copy(), n.copy()) for i, p, n in zip(self._ids, self._points, self._normals)}
+
+    def add_plane(self, point, normal, tool=None) -> int:
+        """Add a boundary between steps; only when the tool (its last position, or `tool`)
+        is on the plane's safe side, as the dynamic model requires. Returns its id."""
+        where = self._position if tool is None else _vector(tool, "tool position")
+        if where is None:
+            raise ValueError("add_plane: the tool position is unknown; pass tool=(x, y, z)")
+        pt, n = _vector(point, "plane point"), _unit(normal)
+        if float(np.dot(where - pt, n)) < 0:
+            raise ValueError("add_plane: the tool is on the forbidden side of this plane")
+        return self._append(pt, n)
+
+    def remove_plane(self, plane_id: int) -> None:
+        """Remove a boundary (allowed at any step)."""
+        if plane_id not in self._ids:
+            raise KeyError(f"no plane with id {plane_id}")
+        keep = [j for j, i in enumerate(self._ids) if i != plane_id]
+        self._ids = [self._ids[j] for j in keep]
+        self._points, self._normals = self._points[keep], self._normals[keep]
+
+    def _append(self, point, normal) -> int:
+        pt, n = _vector(point, "plane point"), _unit(normal)
+        self._points = np.vstack([self._points, pt])
+        self._normals = np.vstack([self._normals, n])
+        self._ids.append(self._next_id)
+        self._next_id += 1
+        return self._ids[-1]
+
+    # ------------------------------------------------------------------ the control step
+    def step(self, p, f, fp, dt: float | None = None) -> Command:
+        """Gain and commanded velocity for tool position p, surgeon force f and its rate fp.
+        dt: time since the previous step (default: the period ε) for the motion check."""
+        try:
+            p, f, fp = (np.asarray(x, dtype=float).reshape(-1) for x in (p, f, fp))
+        except (TypeError, ValueError) as exc:
+            return self._fallback(f"inputs are not numbers: {exc}")
+        verdict = monitor.check_inputs(p, f, fp, self._normals, self._points, self.gain, self.buffer,
+                                       self.period)
+        if verdict.ok:
+            verdict = monitor.check_motion(self._previous, p, self.gain,
+                                           self.period if dt is None else dt, self.position_tolerance)
+        if not verdict.ok:
+            return self._fallback(verdict.reason, p)
+        n, r = self._normals, self._points
+        k, enabled = ctrl2.controller(*p, *fp, *f, self.buffer, self.period, self.gain,
+                                      r[:, 0], n[:, 0], r[:, 1], n[:, 1], r[:, 2], n[:, 2])
+        k = float(k)
+        if not enabled:
+            return self._fallback("the verified controller has no enabled case for this state", p)
+        d0 = np.einsum("ij,ij->i", p - r, n)
+        verdict = monitor.check_command(k, d0, n @ f, n @ fp, self.gain, self.period)
+        if not verdict.ok:
+            return self._fallback(verdict.reason, p)
+        self._previous, self._position = (p, f, fp, k), p
+        return Command(k, self.gain * k * f, True, "", d0)
+
+    def _fallback(self, reason: str, p=None) -> Command:
+        """k = 0: the tool stops where it is, which no boundary can object to."""
+        if p is not None and p.shape == (3,) and np.all(np.isfinite(p)):
+            self._previous, self._position = (p, np.zeros(3), np.zeros(3), 0.0), p
+        else:
+            self._previous = None
+        return Command(0.0, np.zeros(3), False, reason)
+
+
+def _vector(x, what: str) -> np.ndarray:
+    v = np.asarray(x, dtype=float).reshape(-1)
+    if v.shape != (3,) or not np.all(np.isfinite(v)):
+        raise ValueError(f"{what} must be three finite numbers, got {x!r}")
+    return v
+
+
+def _unit(normal) -> np.ndarray:
+    n = _vector(normal, "plane normal")
+    length = float(np.linalg.norm(n))
+    if length == 0:
+        raise ValueError("a plane normal must not be zero")
+    if abs(length - 1.0) > monitor.UNIT_TOLERANCE:
+        raise ValueError(f"a plane normal must have length 1, got {length:.6g}")
+    return n
+
+
+_checked = False
+
+
+def _check_extracted() -> None:
+    """Refuse to run code extracted from a model that has changed since."""
+    global _checked
+    if _checked:
+        return
+    from certiloop.models import library
+
+    current = library.get(ctrl2.MODEL).content_hash
+    if current != ctrl2.MODEL_HASH:
+        raise RuntimeError(f"kernel/ctrl2.py was extracted from an older {ctrl2.MODEL} (hash "
+                           f"{ctrl2.MODEL_HASH}, now {current}); run `certiloop extract {ctrl2.MODEL} "
+                           "-o kernel/ctrl2.py`")
+    _checked = True
