@@ -239,7 +239,9 @@ def _solve(atom: Node, name: str) -> tuple[Node, Node]:
 
 
 def _is(atom: Node, name: str) -> bool:
-    return (atom.op == "var" and atom.payload == name) or (atom.op == "select" and atom.args[0].payload == name)
+    if atom.op == "var":
+        return atom.payload == name
+    return atom.op == "select" and atom.args[0].payload == name
 
 
 # --------------------------------------------------------------------------- the controller
@@ -251,7 +253,8 @@ def _loop_body(theorem: Theorem) -> list[Program]:
         raise ExtractError(f"{theorem.name}: the program must be a control loop to extract a controller")
     body = p.body.parts if isinstance(p.body, Seq) else (p.body,)
     for k, q in enumerate(body):
-        if isinstance(q, ODE) or (isinstance(q, Assign) and k + 1 < len(body) and isinstance(body[k + 1], ODE)):
+        clock_reset = isinstance(q, Assign) and k + 1 < len(body) and isinstance(body[k + 1], ODE)
+        if isinstance(q, ODE) or clock_reset:
             return list(body[:k])
     raise ExtractError(f"{theorem.name}: the control loop is not a discrete controller followed by the "
                        "plant ODE, so there is no controller to extract")
@@ -345,7 +348,7 @@ def _min_update(p: Program) -> tuple[str, Node] | None:
     if not isinstance(p, Choice) or len(p.alternatives) != 2:
         return None
     keep, lower = p.alternatives
-    if not (isinstance(keep, Seq) and isinstance(lower, Seq) and len(keep.parts) == 2 and len(lower.parts) == 2):
+    if not all(isinstance(a, Seq) and len(a.parts) == 2 for a in (keep, lower)):
         return None
     (t1, a1), (t2, a2) = keep.parts, lower.parts
     if not all(isinstance(x, Test) for x in (t1, t2)) or not all(isinstance(x, Assign) for x in (a1, a2)):

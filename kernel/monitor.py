@@ -57,12 +57,13 @@ def check_inputs(p, f, fp, normals, points, gain, buffer, period) -> Verdict:
         length2 = np.einsum("ij,ij->i", normals, normals)
         bad = np.flatnonzero(np.abs(length2 - 1.0) > UNIT_TOLERANCE)
         if bad.size:
-            return Verdict(False, f"boundary {int(bad[0])} has a normal of length {np.sqrt(length2[bad[0]]):.6g},"
-                           " not 1")
+            b = int(bad[0])
+            return Verdict(False, f"boundary {b} has a normal of length {np.sqrt(length2[b]):.6g}, not 1")
         d0 = np.einsum("ij,ij->i", p - points, normals)
         past = np.flatnonzero(d0 < -RELATIVE_TOLERANCE * (1 + np.abs(d0)))
         if past.size:
-            return Verdict(False, f"the tool is already past boundary {int(past[0])} (distance {d0[past[0]]:.6g})")
+            b = int(past[0])
+            return Verdict(False, f"the tool is already past boundary {b} (distance {d0[b]:.6g})")
     return OK
 
 
