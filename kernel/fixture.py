@@ -18,6 +18,8 @@ import numpy as np
 
 from . import ctrl2, monitor
 
+ROUNDING = 1e-12  # |k| below this is rounding noise around 0
+
 
 @dataclass
 class Command:
@@ -102,6 +104,10 @@ class VirtualFixture:
         k, enabled = ctrl2.controller(*p, *fp, *f, self.buffer, self.period, self.gain,
                                       r[:, 0], n[:, 0], r[:, 1], n[:, 1], r[:, 2], n[:, 2])
         k = float(k)
+        if -ROUNDING <= k < 0:
+            # -d0·tmp for a tool on a plane up to rounding (d0 = -1e-17): the gain is 0; a lower
+            # gain is always allowed (k = 0 stops the tool)
+            k = 0.0
         if not enabled:
             return self._fallback("the verified controller has no enabled case for this state", p)
         d0 = np.einsum("ij,ij->i", p - r, n)
