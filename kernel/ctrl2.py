@@ -24,53 +24,65 @@ def controller(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, r
         d0 = (((px + (-rx)) * nx) + ((py + (-ry)) * ny) + ((pz + (-rz)) * nz))
         fnp = ((fxp * nx) + (fyp * ny) + (fzp * nz))
         fn = ((fx * nx) + (fy * ny) + (fz * nz))
-        # choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0) (the first enabled is taken)
+        t1 = (d0 >= D)
+        t2 = (d0 >= 0.0)
+        t3 = (d0 <= D)
+        t4 = (fnp >= 0.0)
+        t5 = (fn >= 0.0)
+        t6 = (fnp > 0.0)
+        t7 = (fn <= 0.0)
+        t8 = (fnp == 0.0)
+        t9 = (fnp < 0.0)
+        t10 = (fnp <= 0.0)
+        t11 = (d0 <= 0.0)
+        # choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0)
         u_ff1 = 1.0  # from u[i]*1 = 1
-        case_ff1 = (d0 >= D)  # ff1 free (d0 >= D)
+        case_ff1 = t1  # ff1 free (d0 >= D)
         u_ff2 = 1.0  # from u[i]*1 = 1
-        case_ff2 = (d0 >= 0.0) & (d0 <= D) & (fnp >= 0.0) & (fn >= 0.0)  # ff2 slow, fnp>=0 fn>=0
+        case_ff2 = t2 & t3 & t4 & t5  # ff2 slow, fnp>=0 fn>=0
         xtr_ff3 = ((-1.0 * fn) / fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
         u_ff3 = 1.0  # from u[i]*1 = 1
-        case_ff3 = (d0 >= 0.0) & (d0 <= D) & (fnp > 0.0) & (fn <= 0.0) & (fnp != 0) & (xtr_ff3 <= (e / 2.0))  # ff3 slow, turns early
+        case_ff3 = t2 & t3 & t6 & t7 & (fnp != 0) & (xtr_ff3 <= (e / 2.0))  # ff3 slow, turns early
         xtr_ff4 = ((-1.0 * fn) / fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
         u_ff4 = (d0 / D)  # from u[i]*D = d0[i]
-        case_ff4 = (d0 >= 0.0) & (d0 <= D) & (fnp > 0.0) & (fn <= 0.0) & (fnp != 0) & (xtr_ff4 >= (e / 2.0)) & (D != 0)  # ff4 slow, turns late
+        case_ff4 = t2 & t3 & t6 & t7 & (fnp != 0) & (xtr_ff4 >= (e / 2.0)) & (D != 0)  # ff4 slow, turns late
         u_ff5 = (d0 / D)  # from u[i]*D = d0[i]
-        case_ff5 = (d0 >= 0.0) & (d0 <= D) & (fnp == 0.0) & (fn <= 0.0) & (D != 0)  # ff5 slow, fnp=0 fn<=0
+        case_ff5 = t2 & t3 & t8 & t7 & (D != 0)  # ff5 slow, fnp=0 fn<=0
         xtr_ff6 = ((-1.0 * fn) / fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
         u_ff6 = (d0 / D)  # from u[i]*D = d0[i]
-        case_ff6 = (d0 >= 0.0) & (d0 <= D) & (fnp < 0.0) & (fn >= 0.0) & (fnp != 0) & (xtr_ff6 <= (e / 2.0)) & (D != 0)  # ff6 slow, reverses early
+        case_ff6 = t2 & t3 & t9 & t5 & (fnp != 0) & (xtr_ff6 <= (e / 2.0)) & (D != 0)  # ff6 slow, reverses early
         xtr_ff7 = ((-1.0 * fn) / fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
         u_ff7 = 1.0  # from u[i]*1 = 1
-        case_ff7 = (d0 >= 0.0) & (d0 <= D) & (fnp < 0.0) & (fn >= 0.0) & (fnp != 0) & (xtr_ff7 >= (e / 2.0))  # ff7 slow, reverses late
+        case_ff7 = t2 & t3 & t9 & t5 & (fnp != 0) & (xtr_ff7 >= (e / 2.0))  # ff7 slow, reverses late
         u_ff8 = 1.0  # from u[i]*1 = 1
-        case_ff8 = (d0 >= 0.0) & (d0 <= D) & (fnp == 0.0) & (fn >= 0.0)  # ff8 slow, fnp=0 fn>=0
+        case_ff8 = t2 & t3 & t8 & t5  # ff8 slow, fnp=0 fn>=0
         u_ff9 = (d0 / D)  # from u[i]*D = d0[i]
-        case_ff9 = (d0 >= 0.0) & (d0 <= D) & (fnp <= 0.0) & (fn <= 0.0) & (D != 0)  # ff9 slow, fnp<=0 fn<=0
+        case_ff9 = t2 & t3 & t10 & t7 & (D != 0)  # ff9 slow, fnp<=0 fn<=0
         u_ff10 = 0.0  # from u[i]*1 = 0
-        case_ff10 = (d0 <= 0.0)  # ff10 stuck (d0 <= 0)
-        u = np.select([case_ff1, case_ff2, case_ff3, case_ff4, case_ff5, case_ff6, case_ff7, case_ff8, case_ff9, case_ff10], [u_ff1, u_ff2, u_ff3, u_ff4, u_ff5, u_ff6, u_ff7, u_ff8, u_ff9, u_ff10], np.nan)
-        xtr = np.select([case_ff1, case_ff2, case_ff3, case_ff4, case_ff5, case_ff6, case_ff7, case_ff8, case_ff9, case_ff10], [np.nan, np.nan, xtr_ff3, xtr_ff4, np.nan, xtr_ff6, xtr_ff7, np.nan, np.nan, np.nan], np.nan)
+        case_ff10 = t11  # ff10 stuck (d0 <= 0)
+        u = np.where(case_ff1, u_ff1, np.where(case_ff2, u_ff2, np.where(case_ff3, u_ff3, np.where(case_ff4, u_ff4, np.where(case_ff5, u_ff5, np.where(case_ff6, u_ff6, np.where(case_ff7, u_ff7, np.where(case_ff8, u_ff8, np.where(case_ff9, u_ff9, np.where(case_ff10, u_ff10, np.nan))))))))))
         enabled &= case_ff1 | case_ff2 | case_ff3 | case_ff4 | case_ff5 | case_ff6 | case_ff7 | case_ff8 | case_ff9 | case_ff10
         dist = (d0 + (G * u * ((fn * e) + (fnp * (e ** 2) * 0.5))))
         disc = (((G * u * fn) ** 2) + (-(2.0 * G * u * fnp * d0)))
-        # choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away (the first enabled is taken)
-        tmp_sa = (1.0 / G)  # from tmp*G = 1
-        case_sa = (fnp <= 0.0) & (dist >= 0.0) & (G != 0)  # sa fnp<=0, clear
+        t12 = (dist >= 0.0)
+        t13 = (dist <= 0.0)
+        t14 = (disc <= 0.0)
+        t15 = (disc >= 0.0)
+        t16 = ((fn + (fnp * e)) >= 0.0)
+        t17 = ((fn + (fnp * e)) <= 0.0)
+        # choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away
+        case_sa = t10 & t12 & (G != 0)  # sa fnp<=0, clear
         tmp_se = (1.0 / ((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
-        case_se = (fnp <= 0.0) & (dist <= 0.0) & (((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)) != 0)  # se fnp<=0, would cross
-        tmp_sb = (1.0 / G)  # from tmp*G = 1
-        case_sb = (fnp >= 0.0) & (fn <= 0.0) & (disc <= 0.0) & (G != 0)  # sb turns back, disc<=0
+        case_se = t10 & t13 & (((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)) != 0)  # se fnp<=0, would cross
+        case_sb = t4 & t7 & t14 & (G != 0)  # sb turns back, disc<=0
         tmp_sf = (1.0 / (G * (fn ** 2)))  # from tmp*G*fn[i]^2 = 1
-        case_sf = (fnp >= 0.0) & (fn <= 0.0) & (disc >= 0.0) & ((fn + (fnp * e)) >= 0.0) & ((G * (fn ** 2)) != 0)  # sf turns within step
+        case_sf = t4 & t7 & t15 & t16 & ((G * (fn ** 2)) != 0)  # sf turns within step
         tmp_sg = (1.0 / ((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
-        case_sg = (fnp >= 0.0) & (fn <= 0.0) & (disc >= 0.0) & ((fn + (fnp * e)) <= 0.0) & (dist <= 0.0) & (((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)) != 0)  # sg still inward, would cross
-        tmp_sc = (1.0 / G)  # from tmp*G = 1
-        case_sc = (fnp >= 0.0) & (fn <= 0.0) & (disc >= 0.0) & ((fn + (fnp * e)) <= 0.0) & (dist >= 0.0) & (G != 0)  # sc still inward, clear
-        tmp_sd = (1.0 / G)  # from tmp*G = 1
-        case_sd = (fnp >= 0.0) & (fn >= 0.0) & (G != 0)  # sd away
-        tmp = np.select([case_sa, case_se, case_sb, case_sf, case_sg, case_sc, case_sd], [tmp_sa, tmp_se, tmp_sb, tmp_sf, tmp_sg, tmp_sc, tmp_sd], np.nan)
-        kt = np.select([case_sa, case_se, case_sb, case_sf, case_sg, case_sc, case_sd], [u, (-1.0 * d0 * tmp_se), u, (2.0 * fnp * d0 * tmp_sf), (-1.0 * d0 * tmp_sg), u, u], np.nan)
+        case_sg = t4 & t7 & t15 & t17 & t13 & (((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)) != 0)  # sg still inward, would cross
+        case_sc = t4 & t7 & t15 & t17 & t12 & (G != 0)  # sc still inward, clear
+        case_sd = t4 & t5 & (G != 0)  # sd away
+        kt = np.where(case_sa, u, np.where(case_se, (-1.0 * d0 * tmp_se), np.where(case_sb, u, np.where(case_sf, (2.0 * fnp * d0 * tmp_sf), np.where(case_sg, (-1.0 * d0 * tmp_sg), np.where(case_sc, u, np.where(case_sd, u, np.nan)))))))
         enabled &= case_sa | case_se | case_sb | case_sf | case_sg | case_sc | case_sd
         k = np.minimum(k, np.min(kt, initial=np.inf))
-    return k, bool(np.all(enabled))
+    # floating-point overflow (1/(G fn²) for fn = 1e-160) is no run the proof covers
+    return k, bool(np.all(enabled)) and bool(np.isfinite(k))

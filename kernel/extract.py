@@ -64,6 +64,7 @@ class _Emitter:
         self.reads: dict[str, None] = {}  # scalars read before being assigned (parameters)
         self.families: dict[str, None] = {}
         self.opened: set[str] = set()  # `x := *` not yet pinned down by a test
+        self.shared: dict[str, str] = {}  # comparison code -> the temporary holding it
 
     # ---------------------------------------------------------------- expressions
     def code(self, n: Node, subst: dict[str, str] | None = None) -> str:
@@ -107,7 +108,10 @@ class _Emitter:
         if op == "^":
             return a[0] if n.payload == 1 else f"({a[0]} ** {n.payload})"
         if op == "cmp":
-            return f"({a[0]} {n.payload} {a[1]})"
+            text = f"({a[0]} {n.payload} {a[1]})"
+            if any(_mentions(n, v) for v in subst):
+                return text  # reads a value solved inside one alternative: not shared
+            return self._shared(text)
         if op == "and":
             return "(" + " & ".join(a) + ")" if a else "True"
         if op == "or":
@@ -118,6 +122,18 @@ class _Emitter:
             return f"((~{a[0]}) | {a[1]})"
         raise ExtractError(f"cannot extract `{n}` into runtime code")
 
+    def _shared(self, text: str) -> str:
+        """A comparison the ten cases repeat (0 <= d0, d0 <= D, ...) is computed once."""
+        name = self.shared.get(text)
+        if name is None:
+            name = self.shared[text] = f"t{len(self.shared) + 1}"
+            self.lines.append(f"{name} = {text}")
+        return name
+
+    def _assigned(self, var: str) -> None:
+        """var has a new value: shared comparisons that read it are stale."""
+        self.shared = {t: n for t, n in self.shared.items() if not re.search(rf"\b{var}\b", t)}
+
     # ---------------------------------------------------------------- statements
     def statement(self, p: Program) -> None:
         if isinstance(p, Seq):
@@ -127,6 +143,7 @@ class _Emitter:
             name = _target_name(p.target, self.index)
             self.lines.append(f"{name} = {self.code(p.value)}")
             self.local[name] = name
+            self._assigned(name)
             self.opened.discard(name)
         elif isinstance(p, Havoc) and self.index is not None and _target_name(p.target, self.index):
             # an auxiliary value (xtr(i)) that a later test pins down: open until then
@@ -141,7 +158,7 @@ class _Emitter:
     def choice(self, p: Choice) -> None:
         tags = [_tag(label, k) for k, label in enumerate(p.labels)]
         alts = [self.alternative(q, tag) for q, tag in zip(p.alternatives, tags)]
-        self.lines.append(f"# choice: {' | '.join(p.labels)} (the first enabled is taken)")
+        self.lines.append(f"# choice: {' | '.join(p.labels)}")
         for alt, tag, label in zip(alts, tags, p.labels):
             self.lines.extend(alt.lines)
             self.lines.append(f"case_{tag} = {' & '.join(alt.mask) if alt.mask else 'True'}  # {label}")
@@ -150,8 +167,14 @@ class _Emitter:
         for var in changed:
             current = self.local.get(var, "np.nan")
             values = [alt.effects.get(var, current) for alt in alts]
-            self.lines.append(f"{var} = np.select([{', '.join(masks)}], [{', '.join(values)}], np.nan)")
+            # the first enabled alternative's value (np.where nested from the last: np.select
+            # does the same ten times slower on small arrays)
+            picked = "np.nan"
+            for mask, value in reversed(list(zip(masks, values))):
+                picked = f"np.where({mask}, {value}, {picked})"
+            self.lines.append(f"{var} = {picked}")
             self.local[var] = var
+            self._assigned(var)
             self.opened.discard(var)
         self.lines.append(f"enabled &= {' | '.join(masks)}")
 
@@ -293,7 +316,7 @@ def extract(theorem: Theorem) -> str:
             _foreach(em, q)
         else:
             raise ExtractError(f"cannot extract the controller statement `{q}`")
-    body = em.lines
+    body = _without_dead(em.lines, keep={"k", "enabled"})
     params = list(dict.fromkeys([*em.reads, *inputs]))
     families = list(em.families)
     outputs = [v for v in em.local if v not in families and em.local[v] == v]
@@ -308,8 +331,21 @@ def extract(theorem: Theorem) -> str:
     src += "    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):\n"
     for line in body:
         src += f"        {line}\n"
-    src += f"    return {result}, bool(np.all(enabled))\n"
+    src += "    # floating-point overflow (1/(G fn²) for fn = 1e-160) is no run the proof covers\n"
+    src += f"    return {result}, bool(np.all(enabled)) and bool(np.isfinite({result}))\n"
     return src
+
+
+def _without_dead(lines: list[str], keep: set[str]) -> list[str]:
+    """Drop assignments whose variable nothing later reads (e.g. the auxiliary tmp and
+    xtr once the gain is computed): they cannot change the result."""
+    out: list[str] = []
+    for line in reversed(lines):
+        m = re.match(r"^(\w+) = ", line)
+        if m and m.group(1) not in keep and not any(re.search(rf"\b{m.group(1)}\b", later) for later in out):
+            continue
+        out.append(line)
+    return list(reversed(out))
 
 
 def _foreach(em: _Emitter, loop: Loop) -> None:

@@ -109,7 +109,8 @@ class VirtualFixture:
             # gain is always allowed (k = 0 stops the tool)
             k = 0.0
         if not enabled:
-            return self._fallback("the verified controller has no enabled case for this state", p)
+            return self._fallback("the verified controller has no enabled case for this state "
+                                  "(or its floating-point arithmetic overflowed)", p)
         d0 = np.einsum("ij,ij->i", p - r, n)
         verdict = monitor.check_command(k, d0, n @ f, n @ fp, self.gain, self.period)
         if not verdict.ok:
