@@ -32,6 +32,18 @@ def median_us(fn, calls: int) -> float:
     return statistics.median(times) / 1000
 
 
+def measure(m: int, rng, calls: int) -> dict:
+    fixture = VirtualFixture(planes(m, rng), gain=1.0, buffer=0.5, period=0.0182,
+                             position_tolerance=np.inf)  # the same p every call: no motion check
+    p, f, fp = np.zeros(3), np.array([1.0, -2.0, 0.5]), np.array([0.1, 0.0, -0.3])
+    n, r = fixture._normals, fixture._points
+    args = (*p, *fp, *f, 0.5, 0.0182, 1.0, r[:, 0], n[:, 0], r[:, 1], n[:, 1], r[:, 2], n[:, 2])
+    step = median_us(lambda: fixture.step(p, f, fp), calls)
+    bare = median_us(lambda: ctrl2.controller(*args), calls)
+    return {"boundaries": m, "step_median_us": round(step, 1), "controller_median_us": round(bare, 1),
+            "monitor_and_checks_us": round(step - bare, 1)}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--calls", type=int, default=2000)
@@ -39,14 +51,7 @@ def main() -> None:
     rng = np.random.default_rng(0)
     rows = []
     for m in (1, 10, 100, 1000):
-        fixture = VirtualFixture(planes(m, rng), gain=1.0, buffer=0.5, period=0.0182, position_tolerance=np.inf)
-        p, f, fp = np.zeros(3), np.array([1.0, -2.0, 0.5]), np.array([0.1, 0.0, -0.3])
-        step = median_us(lambda: fixture.step(p, f, fp), args.calls)
-        n, r = fixture._normals, fixture._points
-        bare = median_us(lambda: ctrl2.controller(*p, *fp, *f, 0.5, 0.0182, 1.0, r[:, 0], n[:, 0], r[:, 1],
-                                                  n[:, 1], r[:, 2], n[:, 2]), args.calls)
-        rows.append({"boundaries": m, "step_median_us": round(step, 1), "controller_median_us": round(bare, 1),
-                     "monitor_and_checks_us": round(step - bare, 1)})
+        rows.append(measure(m, rng, args.calls))
     record("kernel", rows)
 
 

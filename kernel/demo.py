@@ -41,7 +41,8 @@ def simulate(steps: int):
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m certiloop.kernel.demo", description=__doc__.split("\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m certiloop.kernel.demo",
+                                     description=__doc__.split("\n")[0])
     parser.add_argument("--steps", type=int, default=60, help="control periods to simulate (default 60)")
     parser.add_argument("--plot", metavar="F.png", help="save distances and k over time to F.png")
     args = parser.parse_args(argv)
