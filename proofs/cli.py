@@ -6,6 +6,7 @@ import argparse
 import json
 import os
 import sys
+import time
 from pathlib import Path
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
@@ -43,6 +44,8 @@ def build_parser() -> argparse.ArgumentParser:
                        help="seconds per obligation before it is 'unknown' (default 30)")
     prove.add_argument("--jobs", metavar="N", type=int, default=None,
                        help="worker processes (default: number of cores)")
+    prove.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
+                       "(tcp://host:8786; needs certiloop[distributed])")
     prove.add_argument("-v", "--verbose", action="store_true", help="list every obligation")
 
     falsify = sub.add_parser(
@@ -83,10 +86,21 @@ def build_parser() -> argparse.ArgumentParser:
     gate.add_argument("models", nargs="*", metavar="MODEL",
                       help="library names or path/to/file.py:theorem (default: the library)")
     gate.add_argument("--json", metavar="F", help="write the gate report as JSON to F")
+    gate.add_argument("--junit", metavar="F",
+                      help="write JUnit XML to F (a test case per model and obligation)")
+    gate.add_argument("--markdown", metavar="F",
+                      help="append a Markdown summary to F (e.g. $GITHUB_STEP_SUMMARY)")
     gate.add_argument("--timeout", metavar="S", type=float, default=60.0,
                       help="seconds per obligation (default 60)")
     gate.add_argument("--jobs", metavar="N", type=int, default=None,
                       help="worker processes (default: number of cores)")
+    gate.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
+                      "(tcp://host:8786; needs certiloop[distributed])")
+    gate.add_argument("--falsify-examples", metavar="N", type=int, default=300,
+                      help="falsifier runs per model (default 300)")
+    gate.add_argument("--cache", metavar="DIR", help="proof cache folder (default .certiloop/cache, "
+                      "or $CERTILOOP_CACHE)")
+    gate.add_argument("--no-cache", action="store_true", help="prove everything afresh")
     return parser
 
 
@@ -168,39 +182,55 @@ def _check_common(args: argparse.Namespace) -> None:
 
 def cmd_gate(args: argparse.Namespace) -> int:
     _check_common(args)
+    if args.falsify_examples < 1:
+        raise BadInput(f"--falsify-examples must be at least 1, got {args.falsify_examples}")
     from rich.console import Console
     from rich.table import Table
 
-    from certiloop.models import library
+    from certiloop.proofs.cache import Cache
     from certiloop.proofs.engine import Prover
-    from certiloop.proofs.gate import run_gate
-    from certiloop.proofs.loading import load
+    from certiloop.proofs.gate import GateOptions, run_gate
+    from certiloop.proofs.gate_report import junit, markdown
+    from certiloop.proofs.loading import load, project_models
     from certiloop.proofs.report import verdict_text
 
-    theorems = [load(spec) for spec in (args.models or library.names())]
+    theorems = [load(spec) for spec in (args.models or project_models())]
+    cache = None if args.no_cache else Cache(Path(args.cache) if args.cache else None)
+    opts = GateOptions(falsify_examples=args.falsify_examples)
     out, err = console(), Console(stderr=True)
-    with Prover(jobs=args.jobs, timeout_s=args.timeout) as prover:
+    start = time.perf_counter()
+    with Prover(jobs=args.jobs, timeout_s=args.timeout, executor=args.executor) as prover:
         if err.is_terminal:
             with err.status("gate") as status:
-                entries = run_gate(theorems, prover,
-                                   on_model=lambda e: status.update(f"gate: {e.result.model} done"))
+                entries = run_gate(theorems, prover, opts, cache,
+                                   on_model=lambda e: status.update(f"gate: {e.model} done"))
         else:
-            entries = run_gate(theorems, prover)
+            entries = run_gate(theorems, prover, opts, cache)
     table = Table(title="certiloop gate")
-    for col in ("model", "expected", "verdict", "obligations", "s", "gate"):
+    for col in ("model", "expected", "verdict", "obligations", "falsifier", "replay", "kernel", "s", "gate"):
         table.add_column(col, no_wrap=col != "model", overflow="fold")
     for e in entries:
-        r = e.result
-        proved = sum(o.verdict == "proved" for o in r.obligations)
-        table.add_row(r.model, r.expected, verdict_text(r.verdict), f"{proved}/{len(r.obligations)}",
-                      f"{r.seconds:.2f}", "[green]PASS[/]" if e.passed else "[bold red]FAIL[/]")
+        proved = sum(o["verdict"] == "proved" for o in e.obligations)
+        replay = "-" if e.replay is None else ("violates" if e.replay["violated"] else "FAILS")
+        kernel = "-" if e.kernel is None else ("matches" if not e.kernel else "DRIFTED")
+        table.add_row(e.model, e.expected, verdict_text(e.verdict), f"{proved}/{len(e.obligations)}",
+                      e.falsify.get("verdict", "-"), replay, kernel,
+                      f"{e.seconds:.2f}" + (" (cached)" if e.cached else ""),
+                      "[green]PASS[/]" if e.passed else "[bold red]FAIL[/]")
     out.print(table)
     failed = [e for e in entries if not e.passed]
     for e in failed:
-        out.print(f"FAIL {e.result.model}: {e.message}", highlight=False, markup=False)
-    out.print(f"{len(entries) - len(failed)} passed, {len(failed)} failed", highlight=False)
+        out.print(f"FAIL {e.model}: {e.message}", highlight=False, markup=False)
+    cached = f", {cache.hits} from the cache" if cache and cache.hits else ""
+    out.print(f"{len(entries) - len(failed)} passed, {len(failed)} failed{cached} "
+              f"({time.perf_counter() - start:.1f} s)", highlight=False)
     if args.json:
         Path(args.json).write_text(json.dumps([e.to_json() for e in entries], indent=2) + "\n")
+    if args.junit:
+        Path(args.junit).write_text(junit(entries))
+    if args.markdown:
+        with open(args.markdown, "a") as fh:  # CI summary files are appended to
+            fh.write(markdown(entries))
     return EXIT_OK if not failed else EXIT_FAILED
 
 
@@ -219,7 +249,7 @@ def cmd_prove(args: argparse.Namespace) -> int:
     out = console(stderr=args.json == "-")
     err = Console(stderr=True)
     results = []
-    with Prover(jobs=args.jobs, timeout_s=args.timeout) as prover:
+    with Prover(jobs=args.jobs, timeout_s=args.timeout, executor=args.executor) as prover:
         for theorem in theorems:
             smt_dir = Path(args.smtlib) if args.smtlib else None
             if err.is_terminal:

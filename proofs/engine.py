@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from certiloop.models.terms import INT
+from certiloop.models.terms import INT, ModelError
 from certiloop.models.theorem import Theorem
 
 from .abstraction import abbreviation_instances, abstract, congruences, lower_term
@@ -138,19 +138,32 @@ class Prover:
     """Holds the worker pool across theorems so workers are forked once, before z3 is used
     in this process."""
 
-    def __init__(self, jobs: int | None = None, timeout_s: float = 30.0) -> None:
+    def __init__(self, jobs: int | None = None, timeout_s: float = 30.0, executor: str | None = None) -> None:
+        """executor: a Dask scheduler address (tcp://host:8786) to discharge obligations on
+        instead of the local process pool."""
         self.jobs = max(1, jobs or os.cpu_count() or 1)
         self.timeout_s = timeout_s
         self._pool: Executor | None = None
+        self._client = None
+        if executor is not None:
+            self._pool = _dask_executor(executor)
 
     def __enter__(self) -> "Prover":
         return self
 
     def __exit__(self, *exc) -> None:
-        if self._pool is not None:
+        if self._pool is None:
+            return
+        client = getattr(self._pool, "_certiloop_client", None)
+        if client is not None:  # a Dask executor: leave the cluster running, drop our connection
+            self._pool.shutdown(wait=False)
+            client.close()
+        else:
             self._pool.shutdown(cancel_futures=True)
 
     def _executor(self) -> Executor | None:
+        if self._pool is not None:
+            return self._pool
         if self.jobs == 1:
             return None
         if self._pool is None:
@@ -215,6 +228,22 @@ class Prover:
             if on_result:
                 on_result(results[-1])
         return results
+
+
+def _dask_executor(address: str) -> Executor:
+    """A concurrent.futures executor on an existing Dask cluster: obligations are
+    independent units of work, as in the paper's distributed KeYmaeraD."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise ImportError("--executor needs Dask: pip install 'certiloop[distributed]'") from None
+    try:
+        client = Client(address, timeout=10)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise ModelError(f"cannot reach the Dask scheduler at {address}: {exc}") from None
+    executor = client.get_executor()
+    executor._certiloop_client = client  # keep the connection alive with the executor
+    return executor
 
 
 def write_smtlib(model: str, obligations: list[Obligation], folder: Path) -> None:

@@ -56,3 +56,22 @@ def _from_file(path_text: str, attr: str) -> Theorem:
     if not isinstance(obj, Theorem):
         raise ModelError(f"{path_text}:{attr} is a {type(obj).__name__}, not a certiloop Theorem")
     return obj
+
+
+def project_models(folder: Path | None = None) -> list[str]:
+    """The gate's default: `[tool.certiloop] models = [...]` in ./pyproject.toml if there is
+    one, else the whole library."""
+    import tomllib
+
+    path = (folder or Path.cwd()) / "pyproject.toml"
+    if path.is_file():
+        try:
+            config = tomllib.loads(path.read_text()).get("tool", {}).get("certiloop", {})
+        except tomllib.TOMLDecodeError as exc:
+            raise ModelError(f"{path}: not valid TOML: {exc}") from None
+        models = config.get("models")
+        if models is not None:
+            if not isinstance(models, list) or not all(isinstance(m, str) for m in models):
+                raise ModelError(f"{path}: [tool.certiloop] models must be a list of MODEL strings")
+            return models
+    return library.names()

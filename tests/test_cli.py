@@ -156,9 +156,10 @@ GATE_MODELS = textwrap.dedent("""
 def test_gate_passes_and_fails_as_it_should(tmp_path):
     f = tmp_path / "gm.py"
     f.write_text(GATE_MODELS)
-    code, out, _ = run("gate", f"{f}:fine", "sbs.ctrl1_broken")
+    code, out, _ = run("gate", f"{f}:fine", "sbs.ctrl1_broken", "--no-cache")
     assert code == 0 and "2 passed, 0 failed" in out
-    code, out, _ = run("gate", f"{f}:fine", f"{f}:wrongly_expected", "--json", str(tmp_path / "g.json"))
+    code, out, _ = run("gate", f"{f}:fine", f"{f}:wrongly_expected", "--json", str(tmp_path / "g.json"),
+                       "--no-cache")
     assert code == 1 and "FAIL user.wrong: expected proved, but it is refuted" in out
     report = json.loads((tmp_path / "g.json").read_text())
     assert [e["passed"] for e in report] == [True, False]
@@ -167,7 +168,7 @@ def test_gate_passes_and_fails_as_it_should(tmp_path):
 def test_gate_fails_a_proof_that_became_unknown(tmp_path):
     f = tmp_path / "gm.py"
     f.write_text(GATE_MODELS)
-    code, out, _ = run("gate", f"{f}:hard", "--timeout", "0.001", "--jobs", "1")
+    code, out, _ = run("gate", f"{f}:hard", "--timeout", "0.001", "--jobs", "1", "--no-cache")
     if "as expected" in out or code == 0:
         pytest.skip("z3 decided the obligation within a millisecond on this machine")
     assert code == 1 and "the proof is unknown" in out
