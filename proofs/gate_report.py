@@ -64,9 +64,9 @@ def markdown(entries: list[GateEntry]) -> str:
         replay = "—" if e.replay is None else ("violates" if e.replay["violated"] else "**fails**")
         kernel = "—" if e.kernel is None else ("matches" if not e.kernel else "**drifted**")
         falsify = e.falsify.get("verdict", "—")
-        out.append(f"| `{e.model}` | {e.expected} | {e.verdict} | {proved}/{len(e.obligations)} | {falsify} | "
-                   f"{replay} | {kernel} | {e.seconds:.2f}{' (cached)' if e.cached else ''} | "
-                   f"{'pass' if e.passed else '**FAIL**'} |")
+        seconds = f"{e.seconds:.2f}{' (cached)' if e.cached else ''}"
+        out.append(f"| `{e.model}` | {e.expected} | {e.verdict} | {proved}/{len(e.obligations)} | "
+                   f"{falsify} | {replay} | {kernel} | {seconds} | {'pass' if e.passed else '**FAIL**'} |")
     failures = [e for e in entries if not e.passed]
     if failures:
         out += ["", "### Failures", ""]
