@@ -13,6 +13,8 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl1": sbs.ctrl1,
     "sbs.ctrl1_broken": sbs.ctrl1_broken,
     "sbs.immediate": sbs.immediate,
+    "sbs.predictive": sbs.predictive,
+    "sbs.predictive_multi": sbs.predictive_multi,
     "sbs.eqn12": sbs.eqn12,
     "sbs.ctrl2_2d": sbs.ctrl2_2d,
     "sbs.ctrl2": sbs.ctrl2,

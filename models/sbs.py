@@ -346,3 +346,146 @@ def eqn12() -> Theorem:
         constants=(D,),
         description="Eqn 12: sequential projection breaks an earlier boundary at acute angles (Eqn 13)",
     )
+
+
+# =========================================================================== 6.2.2: predictive control
+#
+# Eqn 9 with subtractive feedback: p' = G (f - k n), so the distance to a plane moves as
+# d(t) = d0 + G (fn - k) t + G fnp t²/2. Cases a-g of Fig. 5 choose k; checked against the
+# authors' medrobot_1fix_lin.dl. Transcription notes:
+#  * k > 0 pushes towards the plane ("g positive means towards the barrier" in the file); every
+#    correcting k the cases compute is <= 0, i.e. a push along n, away from the plane.
+#  * Cases f and g write k = fn0 - sqrt(2 fnp d0 / G) as `root := *; ?root² G = 2 d0 fnp ∧ root
+#    >= 0; k := fn - root`. With this sign the tool starts the step moving away (d'(0) = G root
+#    >= 0), which is safe but stronger than the touching path the text describes (fn + root);
+#    we keep the published sign.
+#  * Case g's "if t_m < ε use the sqrt damping, otherwise the case-e damping" is the file's
+#    three sub-branches: t_m from `fnp t_m = -(fn - kt)` when fnp > 0, and fnp = 0 (no
+#    minimum) falls back to case e.
+
+tm, root, kt_p, tmp_p = Reals("tm root kt tmp")
+
+
+class _Plane:
+    """One plane of 6.2.2: a point r on it, its unit normal n (towards the safe side) and
+    the per-plane quantities of Eqn 9; `suffix` names them apart when there are several."""
+
+    def __init__(self, suffix: str = "") -> None:
+        names = "rx ry nx ny d0 fn fnp dist disc k"
+        (self.rx, self.ry, self.nx, self.ny, self.d0, self.fn, self.fnp, self.dist, self.disc,
+         self.k) = Reals(" ".join(n + suffix for n in names.split()))
+
+    def distance(self):
+        return (px - self.rx) * self.nx + (py - self.ry) * self.ny
+
+    def unit(self):
+        return self.nx**2 + self.ny**2 == 1
+
+    def abbreviations(self, suffix: str = ""):
+        """The projection onto the plane's frame: distance, normal force and its rate."""
+        n = (self.nx, self.ny)
+        return {f"d0{suffix}_": self.distance(), f"fn{suffix}_": dot((fx, fy), n),
+                f"fnp{suffix}_": dot((fxp, fyp), n), f"nn{suffix}_": dot(n, n)}
+
+
+def _predictive_control(plane: _Plane, force_x, force_y) -> Program:
+    """Measure the plane's Eqn-9 quantities for the force (force_x, force_y) and choose its
+    subtractive damping k by cases a-g of Fig. 5."""
+    d0, fn, fnp, dist, disc, k = plane.d0, plane.fn, plane.fnp, plane.dist, plane.disc, plane.k
+    e = e_imm
+    reach_end = lambda: seq(havoc(tmp_p), test(tmp_p * G * e == 1),  # noqa: E731
+                            assign(k, fn + (d0 + Fraction(1, 2) * G * fnp * e**2) * tmp_p))
+    touch_min = lambda: seq(havoc(root), test(And(root * root * G == 2 * d0 * fnp, root >= 0)),  # noqa: E731
+                            assign(k, fn - root))
+    inward, slowing = fn <= 0, fnp >= 0
+    case_g = seq(
+        havoc(tmp_p), test(tmp_p * G * e == 1),
+        assign(kt_p, fn + (d0 + Fraction(1, 2) * G * fnp * e**2) * tmp_p),
+        choice(
+            branch("g1 damped minimum within the step", havoc(tm),
+                   test(And(fnp > 0, fnp * tm == -1 * (fn - kt_p), tm <= e)), touch_min()),
+            branch("g2 damped minimum after the step", havoc(tm),
+                   test(And(fnp > 0, fnp * tm == -1 * (fn - kt_p), tm >= e)), assign(k, kt_p)),
+            branch("g3 no minimum (fnp = 0)", test(fnp == 0), assign(k, kt_p)),
+        ),
+    )
+    return seq(
+        assign(d0, plane.distance()),
+        assign(fn, force_x * plane.nx + force_y * plane.ny),
+        assign(fnp, fxp * plane.nx + fyp * plane.ny),
+        assign(dist, d0 + G * (fn * e + fnp * e**2 * Fraction(1, 2))),
+        assign(disc, (G * fn)**2 - 2 * G * fnp * d0),
+        choice(
+            branch("a away, accelerating away", test(And(slowing, fn >= 0)), assign(k, 0)),
+            branch("b turns before the plane (disc <= 0)", test(And(slowing, inward, disc <= 0)), assign(k, 0)),
+            branch("c would cross, but after the step",
+                   test(And(slowing, inward, disc >= 0, fn + fnp * e <= 0, dist >= 0)), assign(k, 0)),
+            branch("d accelerating in, clear at the end", test(And(fnp <= 0, dist >= 0)), assign(k, 0)),
+            branch("e accelerating in, would cross: d(e) = 0", test(And(fnp <= 0, dist <= 0)), reach_end()),
+            branch("f turns within the step: minimum touches",
+                   test(And(slowing, inward, disc >= 0, fn + fnp * e >= 0)), touch_min()),
+            branch("g still inward at the end, would cross",
+                   test(And(slowing, inward, disc >= 0, fn + fnp * e <= 0, dist <= 0)), case_g),
+        ),
+    )
+
+
+
+def _predictive_plant(*planes: _Plane) -> Program:
+    vx_ = G * fx - G * sum((pl.k * pl.nx for pl in planes[1:]), planes[0].k * planes[0].nx)
+    vy_ = G * fy - G * sum((pl.k * pl.ny for pl in planes[1:]), planes[0].k * planes[0].ny)
+    return ode({px: vx_, py: vy_, fx: fxp, fy: fyp, t_imm: 1}, t_imm <= e_imm)
+
+
+def predictive() -> Theorem:
+    """6.2.2: predictive subtractive damping p' = G (f - k n), cases a-g, for one arbitrarily
+    placed and oriented plane in 2D (the paper's medrobot_1fix_lin)."""
+    plane = _Plane()
+    step = seq(havoc(fxp), havoc(fyp), _predictive_control(plane, fx, fy), assign(t_imm, 0),
+               _predictive_plant(plane))
+    safe = plane.distance() >= 0
+    return Theorem(
+        name="sbs.predictive",
+        assumptions=And(G > 0, e_imm > 0, plane.unit(), safe),
+        program=loop(step, invariant=safe, label="control loop"),
+        guarantee=safe,
+        expected="proved",
+        constants=(G, e_imm),
+        abbreviations=plane.abbreviations(),
+        # the refuter tries the x-axis with the safe side up first
+        scenarios=(And(G == 1, e_imm == 1, plane.nx == 0, plane.ny == 1, plane.rx == 0, plane.ry == 0),),
+        unroll=1,
+        description="6.2.2: predictive subtractive damping, cases a-g, one plane",
+    )
+
+
+def predictive_multi() -> Theorem:
+    """6.2.2 applied plane after plane, Eqn-2 style: plane 1's damping k1 is chosen for the
+    surgeon's force, plane 2's k2 for the force already corrected by k1, and the tool moves
+    with p' = G (f - k1 n1 - k2 n2). Each k is safe for its own plane, but k2's push along
+    n2 has component k2 (n1·n2) along n1: when n1·n2 < 0 it drives the tool through plane 1."""
+    one, two = _Plane("1"), _Plane("2")
+    corrected_x, corrected_y = fx - one.k * one.nx, fy - one.k * one.ny
+    step = seq(havoc(fxp), havoc(fyp),
+               _predictive_control(one, fx, fy),
+               _predictive_control(two, corrected_x, corrected_y),
+               assign(t_imm, 0), _predictive_plant(one, two))
+    safe = And(one.distance() >= 0, two.distance() >= 0)
+    # The refuter first tries plane 1 facing +y and plane 2 along any axis: it must pick
+    # n2 = -n1 itself, since n1·n2 >= 0 is safe (a push along n2 then helps plane 1).
+    axes = [(1, 0), (-1, 0), (0, 1), (0, -1)]
+    scenario = And(G == 1, e_imm == 1, one.nx == 0, one.ny == 1,
+                   Or(*(And(two.nx == a, two.ny == b) for a, b in axes)))
+    return Theorem(
+        name="sbs.predictive_multi",
+        assumptions=And(G > 0, e_imm > 0, one.unit(), two.unit(), safe),
+        program=loop(step, invariant=safe, label="control loop"),
+        guarantee=safe,
+        expected="refuted",
+        constants=(G, e_imm),
+        abbreviations={**one.abbreviations("1"), **two.abbreviations("2"),
+                       "n1n2_": dot((one.nx, one.ny), (two.nx, two.ny))},
+        scenarios=(scenario,),
+        unroll=1,
+        description="6.2.2 applied plane after plane: one plane's correction pushes through another",
+    )

@@ -5,7 +5,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import time
-from concurrent.futures import Executor, ProcessPoolExecutor
+from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
@@ -64,10 +64,14 @@ def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) ->
     start = time.perf_counter()
     budget = timeout_s  # shrinks once a projected form has a counterexample
     projected_cex = False
+
+    def left() -> float:  # timeout_s is for the whole obligation, all its forms together
+        return max(0.05, min(budget, start + timeout_s - time.perf_counter()))
+
     for backend, weaker in _weakenings(ob):
         if projected_cex and budget <= QUICK_SECONDS and "abstracted" not in backend:
             continue  # quick mode: raw forms of a projected-false obligation never finish in time
-        answer = check_valid(weaker, budget)
+        answer = check_valid(weaker, left())
         if answer.status == "unsat":
             res = judge(ob.id, ob.path, weaker, answer, time.perf_counter() - start)
             res.backend = backend
@@ -79,7 +83,7 @@ def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) ->
     if projected_cex and budget <= QUICK_SECONDS:
         return ObligationResult(ob.id, ob.path, "unknown", time.perf_counter() - start,
                                 reason="not proved: its projected form (abstracted) has a counterexample")
-    answer = check_valid(ob.formula, budget)
+    answer = check_valid(ob.formula, left())
     res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
     if res.verdict == "unknown" and projected_cex:
         res.reason = (f"{res.reason}; its projected form (abstracted) has a counterexample, "
@@ -187,10 +191,18 @@ class Prover:
         refutation, why = None, ""
         if theorem.expected == "refuted":
             # Scheduling only: a violating run makes `proved` impossible whatever the
-            # obligations say, so look for it first and then keep the per-branch report quick.
-            refutation, why = self._run(_refute_task, theorem, self.timeout_s)
-        timeout = QUICK_SECONDS if refutation is not None else self.timeout_s
-        results = self._discharge(obligations, on_result, timeout)
+            # obligations say, so search for it while a quick per-branch report runs, and
+            # give the branches their full time only if no run was found.
+            search = self._submit(_refute_task, theorem, self.timeout_s)
+            results = self._discharge(obligations, None, QUICK_SECONDS)
+            refutation, why = search.result()
+            if refutation is None:
+                results = self._redischarge(obligations, results)
+            if on_result:
+                for r in results:
+                    on_result(r)
+        else:
+            results = self._discharge(obligations, on_result, self.timeout_s)
         verdict, reason = "proved", ""
         if any(r.verdict != "proved" for r in results):
             if refutation is None and theorem.expected != "refuted":
@@ -208,8 +220,21 @@ class Prover:
                              results, reason, refutation)
 
     def _run(self, fn, *args):
+        return self._submit(fn, *args).result()
+
+    def _submit(self, fn, *args) -> Future:
         pool = self._executor()
-        return fn(*args) if pool is None else pool.submit(fn, *args).result()
+        if pool is not None:
+            return pool.submit(fn, *args)
+        done: Future = Future()
+        done.set_result(fn(*args))
+        return done
+
+    def _redischarge(self, obligations: list[Obligation], quick: list[ObligationResult]) -> list[ObligationResult]:
+        """Give the obligations a quick pass left open their full time."""
+        again = [ob for ob, r in zip(obligations, quick) if r.verdict != "proved"]
+        redone = iter(self._discharge(again, None, self.timeout_s))
+        return [r if r.verdict == "proved" else next(redone) for r in quick]
 
     def _discharge(self, obligations: list[Obligation],
                    on_result: Callable[[ObligationResult], None] | None,

@@ -15,7 +15,19 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from certiloop.models.programs import ODE, Assign, Choice, Havoc, Program, Seq, Test, program_symbols
+from certiloop.models.programs import (
+    ODE,
+    Assign,
+    Choice,
+    Havoc,
+    Program,
+    Seq,
+    Test,
+    program_symbols,
+    read_first,
+    seq,
+    test,
+)
 from certiloop.models.terms import BOOL, TRUE, And, Implies, Var, free_vars, substitute
 from certiloop.models.theorem import Theorem
 
@@ -55,6 +67,8 @@ class Refutation:
     check: str
     seconds: float
     raw_initial: dict[str, Any] = field(default_factory=dict)  # exact values, for replays
+    # the theorem's index-free abbreviations at the start (e.g. n1·n2 for two planes)
+    frame: dict[str, str] = field(default_factory=dict)
 
     @property
     def shown(self) -> list[Step]:
@@ -63,7 +77,7 @@ class Refutation:
 
     def to_json(self) -> dict[str, Any]:
         return {"depth": self.depth, "initial": self.initial,
-                "trace": [s.to_json() for s in self.shown], "violated": self.violated,
+                "frame": self.frame, "trace": [s.to_json() for s in self.shown], "violated": self.violated,
                 "check": self.check, "seconds": round(self.seconds, 4)}
 
 
@@ -111,14 +125,24 @@ def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
             model = answer.model or {}
         check = "exact rationals" if _exactness(model) == "exact rationals" else _exactness(model)
         initial = {k: v for k, v in model.items() if "@" not in k}
-        replay = Replay(model, record, post)
+        replay = Replay(model, record, pre, post)
         trace = replay.run(program, initial)
         if trace is None:
             return None, f"BUG: the solver's run at depth {depth} does not replay"
         # the model may hold live z3 handles (array lookups): keep only plain text
         return Refutation(depth, replay.start, trace, f"{theorem.guarantee} is false at the end",
-                          check, time.perf_counter() - start, replay.raw_start), ""
+                          check, time.perf_counter() - start, replay.raw_start,
+                          _frame(theorem, {k: replay.raw_start[k] for k in replay.start})), ""
     return None, why
+
+
+def _frame(theorem: Theorem, start: dict[str, Any]) -> dict[str, str]:
+    """Index-free abbreviations evaluated on the start state (`n1n2 = nx1*nx2 + ny1*ny2`)."""
+    out = {}
+    for name, definition in theorem.abbreviations.items():
+        if set(free_vars(definition)) <= set(start):
+            out[f"{name.rstrip('_')} = {definition}"] = show_value(evaluate(definition, start))
+    return out
 
 
 def _index_sort(theorem: Theorem) -> str | None:
@@ -149,17 +173,19 @@ class Replay:
     violates the guarantee. Choices are resolved by depth-first search; a test that fails
     (or cannot be decided) closes that branch."""
 
-    def __init__(self, model: dict[str, Any], record: dict[int, str], post) -> None:
-        self.model, self.record, self.post = model, record, post
+    def __init__(self, model: dict[str, Any], record: dict[int, str], pre, post) -> None:
+        self.model, self.record, self.pre, self.post = model, record, pre, post
         self.start: dict[str, str] = {}
 
     def run(self, program: Program, state: dict[str, Any]) -> list[Step] | None:
-        state = dict(state)
-        # Symbols absent from the solver's formula cannot affect the violation: any value
-        # will do, and 0 is the one z3's model completion would pick.
+        # Symbols absent from the solver's formula cannot affect the violation, nor can
+        # those the run writes before reading (z3 picks arbitrary start values for them,
+        # which would only confuse a reader): any value will do, and 0 is z3's default.
+        needed = read_first(seq(test(self.pre), program, test(self.post)))
+        state = {k: v for k, v in state.items() if k in needed or k.startswith("#")}
+        self.start = self._show(state)
         for name, sym in program_symbols(program).items():
             state.setdefault(name, _zero(sym.sort))
-        self.start = self._show(state)
         self.raw_start = {k: plain(v) for k, v in state.items() if "@" not in k}
         return self._exec(program, state, (), [], self._at_end)
 
@@ -172,14 +198,15 @@ class Replay:
     def _exec(self, p: Program, state, path, steps, k):
         if isinstance(p, Assign):
             new = _assign(state, p.target, evaluate(p.value, state))
-            step = Step(" / ".join(path), f"{p.target} := {p.value}", self._show(new))
+            step = Step(" / ".join(path), f"{p.target} := {p.value}", self._show(new),
+                        "assign", _root_name(p.target))
             return k(new, path, steps + [step])
         if isinstance(p, Havoc):
             # a choice absent from the solver's formula cannot matter; 0 stands in for it
             value = self.model.get(self.record.get(id(p), ""), _zero(p.target.sort))
             new = _assign(state, p.target, value)
             step = Step(" / ".join(path), f"{p.target} := {show_value(value)}", self._show(new),
-                        "havoc", str(p.target), plain(value))
+                        "havoc", _root_name(p.target), plain(value))
             return k(new, path, steps + [step])
         if isinstance(p, Test):
             return k(state, path, steps) if truth(p.cond, state) is True else None
@@ -217,6 +244,12 @@ class Replay:
             return k(state, path, steps)
         return self._exec(parts[0], state, path, steps,
                           lambda st, pa, sp: self._seq(parts[1:], st, pa, sp, k))
+
+
+def _root_name(target) -> str:
+    while target.op == "select":
+        target = target.args[0]
+    return target.payload
 
 
 def plain(value: Any) -> Any:

@@ -60,9 +60,12 @@ def show_refutation(console: Console, result: TheoremResult) -> None:
     console.print(f"  [bold red]counterexample run[/] (checked with {ref.check}):")
     console.print("    start: " + ", ".join(f"{k} = {v}" for k, v in ref.initial.items()), highlight=False,
                   markup=False)
+    if ref.frame:
+        console.print("    at the start: " + ", ".join(f"{k} is {v}" for k, v in ref.frame.items()),
+                      highlight=False, markup=False)
     previous = dict(ref.initial)
     for step in ref.shown:
-        changed = {k: v for k, v in step.state.items() if previous.get(k) != v}
+        changed = {k: v for k, v in step.state.items() if previous.get(k, v) != v or k == step.target}
         previous = step.state
         where = f"[{step.path}] " if step.path else ""
         after = ", ".join(f"{k} = {v}" for k, v in changed.items()) or "no change"

@@ -18,7 +18,7 @@ from certiloop.models.theorem import Theorem
 from certiloop.proofs.refute import refute
 
 REFUTED = [n for n in library.names() if library.get(n).expected == "refuted"]
-PROVED_SBS = ["sbs.ctrl1", "sbs.ctrl2_2d", "sbs.ctrl2"]
+PROVED_SBS = ["sbs.ctrl1", "sbs.predictive", "sbs.ctrl2_2d", "sbs.ctrl2"]
 
 
 def _search(name, **kw):
@@ -102,6 +102,12 @@ def test_eqn12_counterexample_has_planes_at_an_acute_angle():
     result = _search("sbs.eqn12", max_examples=2000)
     s = result.run.checkpoints[-1].state
     assert s["nix"] * s["njx"] + s["niy"] * s["njy"] < 0
+
+
+def test_predictive_multi_counterexample_has_planes_facing_each_other():
+    result = _search("sbs.predictive_multi", max_examples=2000)
+    s = result.run.checkpoints[-1].state
+    assert s["nx1"] * s["nx2"] + s["ny1"] * s["ny2"] < 0
 
 
 def test_immediate_control_crosses_the_buffer_within_one_step():

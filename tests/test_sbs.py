@@ -4,7 +4,12 @@ from fractions import Fraction
 
 import pytest
 
+from dataclasses import replace
+
 from certiloop.models import library
+from certiloop.models.programs import Assign, Choice, Seq, assign
+from certiloop.models.terms import And, Or, Reals
+from certiloop.proofs.refute import refute
 from certiloop.proofs.engine import Prover, discharge_one
 from certiloop.proofs.interval import Interval
 from certiloop.proofs.vcgen import generate
@@ -70,3 +75,53 @@ def test_immediate_control_crosses_the_buffer_within_one_delay(prover):
     assert start_py >= 0 and D > 0
     assert ref.trace[-1].what.startswith("follow the ODE")
     assert ref.trace[-1].state["py"].startswith("-")
+
+
+# --------------------------------------------------------------------------- 6.2.2 predictive
+
+
+def test_predictive_control_is_proved_case_by_case(prover):
+    result = prover.prove(library.get("sbs.predictive"))
+    assert result.verdict == "proved"
+    cases = {o.path.split(" / ")[1][0] for o in result.obligations if "ODE solve" in o.path}
+    assert cases == set("abcdefg")  # Fig. 5's seven cases, each its own obligation
+
+
+def _without_damping(program, case_prefix):
+    """The program with k := 0 in every branch whose label starts with case_prefix."""
+    def walk(p, inside):
+        if isinstance(p, Assign) and inside and p.target.name == "k":
+            return assign(p.target, 0)
+        if isinstance(p, Seq):
+            return Seq(tuple(walk(q, inside) for q in p.parts))
+        if isinstance(p, Choice):
+            return Choice(tuple(walk(q, inside or label.startswith(case_prefix))
+                                for q, label in zip(p.alternatives, p.labels)), p.labels)
+        if hasattr(p, "body"):
+            return type(p)(walk(p.body, inside), p.invariant, p.label)
+        return p
+    return walk(program, False)
+
+
+@pytest.mark.parametrize("case", ["e ", "f ", "g "])
+def test_each_damping_case_of_predictive_control_is_needed(prover, case):
+    theorem = library.get("sbs.predictive")
+    mutant = replace(theorem, name=f"predictive without damping in case {case}",
+                     program=_without_damping(theorem.program, case), expected="refuted")
+    result = prover.prove(mutant)
+    assert result.verdict == "refuted", result.reason
+    assert all(o.verdict == "proved" for o in result.obligations if not o.path.split(" / ")[1].startswith(case))
+
+
+def test_predictive_control_plane_after_plane_fails_only_for_obtuse_normals(prover):
+    theorem = library.get("sbs.predictive_multi")
+    result = prover.prove(theorem)
+    assert result.verdict == "refuted"
+    s = result.refutation.raw_initial
+    assert s["nx1"] * s["nx2"] + s["ny1"] * s["ny2"] < 0
+    # with axis-aligned normals and n1·n2 >= 0 no single step crosses either plane
+    G, e, nx1, ny1, nx2, ny2 = Reals("G e nx1 ny1 nx2 ny2")
+    acute = And(G == 1, e == 1, nx1 == 0, ny1 == 1,
+                Or(*(And(nx2 == a, ny2 == b) for a, b in [(1, 0), (-1, 0), (0, 1)])))
+    found, why = refute(replace(theorem, assumptions=And(theorem.assumptions, acute), scenarios=()), 60)
+    assert found is None and why.startswith("no violating run"), why
