@@ -417,7 +417,8 @@ def _predictive_control(plane: _Plane, force_x, force_y) -> Program:
         assign(disc, (G * fn)**2 - 2 * G * fnp * d0),
         choice(
             branch("a away, accelerating away", test(And(slowing, fn >= 0)), assign(k, 0)),
-            branch("b turns before the plane (disc <= 0)", test(And(slowing, inward, disc <= 0)), assign(k, 0)),
+            branch("b turns before the plane (disc <= 0)", test(And(slowing, inward, disc <= 0)),
+                   assign(k, 0)),
             branch("c would cross, but after the step",
                    test(And(slowing, inward, disc >= 0, fn + fnp * e <= 0, dist >= 0)), assign(k, 0)),
             branch("d accelerating in, clear at the end", test(And(fnp <= 0, dist >= 0)), assign(k, 0)),

@@ -230,7 +230,8 @@ class Prover:
         done.set_result(fn(*args))
         return done
 
-    def _redischarge(self, obligations: list[Obligation], quick: list[ObligationResult]) -> list[ObligationResult]:
+    def _redischarge(self, obligations: list[Obligation],
+                     quick: list[ObligationResult]) -> list[ObligationResult]:
         """Give the obligations a quick pass left open their full time."""
         again = [ob for ob, r in zip(obligations, quick) if r.verdict != "proved"]
         redone = iter(self._discharge(again, None, self.timeout_s))
