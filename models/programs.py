@@ -115,6 +115,16 @@ class Choice(Program):
         return ("choice", tuple(p.key for p in self.alternatives), self.labels)
 
 
+@dataclass(frozen=True)
+class Each:
+    """Marks a loop made by `foreach`: it visits every element of a finite family once,
+    which is what lets the vacuity check conclude that the loop can always finish."""
+
+    index: Node
+    done: Node
+    member: Node  # formula over `index`: the elements to visit
+
+
 @dataclass(frozen=True, eq=False)
 class Loop(Program):
     """a* with an invariant annotation (None: the proof uses the postcondition)."""
@@ -122,6 +132,7 @@ class Loop(Program):
     body: Program
     invariant: Node | None = None
     label: str = "loop"
+    each: Each | None = None  # set by foreach; not part of the semantics
 
     @property
     def key(self):
@@ -288,10 +299,12 @@ def foreach(index: Node, done: Node, body: Program, invariant: Any,
     member = where or (lambda _j: TRUE)
     step = seq(havoc(index), test(And(Not(done(index)), member(index))), body,
                assign(done(index), TRUE))
+    body = loop(step, invariant, label or f"foreach {index.name}")
+    body = Loop(body.body, body.invariant, body.label, Each(index, done, formula(member(index))))
     return seq(
         havoc(done),
         test(ForAll(other, Not(done(other)))),
-        loop(step, invariant, label or f"foreach {index.name}"),
+        body,
         test(ForAll(other, Implies(member(other), done(other)))),
     )
 

@@ -43,6 +43,7 @@ def ctrl1() -> Theorem:
         program=_ctrl1(_mode(0, 0, And(py <= 0, fy <= 0))),
         guarantee=py >= 0,
         expected="proved",
+        check_nonblocking=True,
         constants=(G, D),
         description="Table 1: event-driven continuous control, one boundary, 2D (Theorem 1)",
     )
@@ -231,6 +232,7 @@ def _ctrl2(name: str, dim: int, expected: str, description: str, kt_formula=None
         program=loop(seq(*step), invariant=safe_all, label="control loop"),
         guarantee=safe_all,
         expected=expected,
+        check_nonblocking=True,
         abbreviations=s.abbreviations(),
         constants=(s.G, s.e, s.D),
         description=description,
@@ -451,6 +453,7 @@ def predictive() -> Theorem:
         program=loop(step, invariant=safe, label="control loop"),
         guarantee=safe,
         expected="proved",
+        check_nonblocking=True,
         constants=(G, e_imm),
         abbreviations=plane.abbreviations(),
         # the refuter tries the x-axis with the safe side up first

@@ -47,6 +47,8 @@ class Theorem:
     description: str = ""
     unroll: int = 3  # loop iterations the refuter explores when a proof fails
     constants: tuple[Node, ...] = ()  # parameters the program must never write (G, D, ...)
+    # vacuity: also prove that the loop body has a run from every state it can start in
+    check_nonblocking: bool = False
     # Extra assumptions the refuter tries first (e.g. axis-aligned boundaries): they only
     # restrict the initial states searched, so a run found under them is a real run.
     scenarios: tuple[Node, ...] = ()

@@ -17,6 +17,7 @@ from .abstraction import abbreviation_instances, abstract, congruences, lower_te
 from .instantiate import instantiate
 from .lowering import lower
 from .smt import check_valid, smtlib_text
+from .vacuity import nonblocking_obligations
 from .vcgen import Obligation, generate
 from .verdicts import ObligationResult, judge
 
@@ -31,6 +32,14 @@ class TheoremResult:
     reason: str = ""
     refutation: Any = None  # refute.Refutation
     extra: dict[str, Any] = field(default_factory=dict)
+    # vacuity (theorems with check_nonblocking, once proved): the step always has a run
+    nonblocking: list[ObligationResult] | None = None
+
+    @property
+    def nonblocking_verdict(self) -> str | None:
+        if self.nonblocking is None:
+            return None
+        return "proved" if all(o.verdict == "proved" for o in self.nonblocking) else "unknown"
 
     @property
     def met_expectation(self) -> bool:
@@ -45,6 +54,9 @@ class TheoremResult:
             "reason": self.reason,
             "counterexample": self.refutation.to_json() if self.refutation else None,
             "obligations": [o.to_json() for o in self.obligations],
+            **({"nonblocking": {"verdict": self.nonblocking_verdict,
+                                "obligations": [o.to_json() for o in self.nonblocking]}}
+               if self.nonblocking is not None else {}),
             **self.extra,
         }
 
@@ -132,6 +144,15 @@ def _has_arrays(n) -> bool:
     return n.op in ("select", "store") or any(_has_arrays(a) for a in n.args)
 
 
+def _no_refutation(r: ObligationResult) -> ObligationResult:
+    """A vacuity obligation is a strengthening of "has a run" (witnesses, flows of duration
+    0), so a counterexample to it only shows where the argument failed, not a blocked state."""
+    if r.verdict == "refuted":
+        r.verdict = "unknown"
+        r.reason = "not proved: the argument that a run exists fails at the state shown, which may still have one"
+    return r
+
+
 def _refute_task(theorem: Theorem, timeout_s: float):
     from .refute import refute
 
@@ -216,8 +237,12 @@ class Prover:
                 reason = (f"{len(failed)} obligation(s) not proved (first: {failed[0].path}: "
                           f"{failed[0].verdict}{': ' + failed[0].reason if failed[0].reason else ''}); "
                           f"{why}")
+        nonblocking = None
+        if theorem.check_nonblocking and verdict == "proved":
+            nonblocking = [_no_refutation(r) for r in
+                           self._discharge(nonblocking_obligations(theorem), None, self.timeout_s)]
         return TheoremResult(theorem.name, verdict, theorem.expected, time.perf_counter() - start,
-                             results, reason, refutation)
+                             results, reason, refutation, nonblocking=nonblocking)
 
     def _run(self, fn, *args):
         return self._submit(fn, *args).result()

@@ -2,8 +2,9 @@
 
 Per model: prove it; replay a prover counterexample in the interpreter; run the falsifier;
 and, for models with a shipped kernel, check the kernel is exactly a fresh extraction.
-A proved model passes only if every obligation is proved, the falsifier finds nothing and
-its kernel has not drifted. A refuted model passes only if the prover's counterexample
+A proved model passes only if every obligation is proved, the falsifier finds nothing, its
+kernel has not drifted and, where the model asks for it, its control step provably never
+blocks (vacuity). A refuted model passes only if the prover's counterexample
 replays in the interpreter and the falsifier finds a violating run too. `unknown` (a
 timeout, a solver give-up) never passes.
 """
@@ -31,6 +32,7 @@ class GateEntry:
     replay: dict[str, Any] | None = None
     falsify: dict[str, Any] = field(default_factory=dict)
     kernel: str | None = None  # None: no shipped kernel; "": matches; else the drift
+    nonblocking: dict[str, Any] | None = None  # the vacuity check, for models that ask for it
     cached: bool = False
 
     @property
@@ -53,6 +55,8 @@ class GateEntry:
                        f"{self.falsify.get('violated')}")
         if self.expected == "refuted" and self.falsify and not found:
             out.append(f"the falsifier found no violating run in {self.falsify.get('examples')} examples")
+        if self.nonblocking is not None and self.nonblocking["verdict"] != "proved":
+            out.append("the vacuity check is not proved: the control step may block")
         if self.kernel:
             out.append(self.kernel)
         return out
@@ -69,13 +73,14 @@ class GateEntry:
         return {"model": self.model, "expected": self.expected, "verdict": self.verdict,
                 "seconds": round(self.seconds, 4), "reason": self.reason,
                 "counterexample": self.counterexample, "replay": self.replay, "falsify": self.falsify,
-                "kernel": self.kernel, "obligations": self.obligations, "cached": self.cached,
+                "kernel": self.kernel, "nonblocking": self.nonblocking, "obligations": self.obligations,
+                "cached": self.cached,
                 "passed": self.passed, "message": self.message}
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> "GateEntry":
-        keep = {k: data[k] for k in ("model", "expected", "verdict", "seconds", "obligations", "reason",
-                                     "counterexample", "replay", "falsify", "kernel")}
+        keep = {k: data.get(k) for k in ("model", "expected", "verdict", "seconds", "obligations", "reason",
+                                         "counterexample", "replay", "falsify", "kernel", "nonblocking")}
         return cls(**keep, cached=True)
 
 
@@ -104,7 +109,8 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntr
     kernel = _kernel_check(theorem)
     data = result.to_json()
     return GateEntry(theorem.name, theorem.expected, result.verdict, time.perf_counter() - start,
-                     data["obligations"], result.reason, data["counterexample"], replay, summary, kernel)
+                     data["obligations"], result.reason, data["counterexample"], replay, summary, kernel,
+                     data.get("nonblocking"))
 
 
 def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=None,

@@ -199,14 +199,14 @@ class Replay:
         if isinstance(p, Assign):
             new = _assign(state, p.target, evaluate(p.value, state))
             step = Step(" / ".join(path), f"{p.target} := {p.value}", self._show(new),
-                        "assign", _root_name(p.target))
+                        "assign", str(p.target))
             return k(new, path, steps + [step])
         if isinstance(p, Havoc):
             # a choice absent from the solver's formula cannot matter; 0 stands in for it
             value = self.model.get(self.record.get(id(p), ""), _zero(p.target.sort))
             new = _assign(state, p.target, value)
             step = Step(" / ".join(path), f"{p.target} := {show_value(value)}", self._show(new),
-                        "havoc", _root_name(p.target), plain(value))
+                        "havoc", str(p.target), plain(value))
             return k(new, path, steps + [step])
         if isinstance(p, Test):
             return k(state, path, steps) if truth(p.cond, state) is True else None
@@ -244,12 +244,6 @@ class Replay:
             return k(state, path, steps)
         return self._exec(parts[0], state, path, steps,
                           lambda st, pa, sp: self._seq(parts[1:], st, pa, sp, k))
-
-
-def _root_name(target) -> str:
-    while target.op == "select":
-        target = target.args[0]
-    return target.payload
 
 
 def plain(value: Any) -> Any:

@@ -49,10 +49,22 @@ def show_result(console: Console, result: TheoremResult, verbose: bool = False) 
             values = ", ".join(f"{k} = {v}" for k, v in o.counterexample.items())
             console.print(f"    obligation counterexample ({o.check}): {values}", highlight=False,
                           markup=False)
+    if result.nonblocking is not None:
+        show_nonblocking(console, result)
     if result.reason:
         console.print(f"  {result.reason}", highlight=False, markup=False)
     if result.refutation is not None:
         show_refutation(console, result)
+
+
+def show_nonblocking(console: Console, result: TheoremResult) -> None:
+    obs = result.nonblocking
+    seconds = sum(o.seconds for o in obs)
+    console.print(f"  vacuity: the control step has a run from every state it can start in: "
+                  f"{verdict_text(result.nonblocking_verdict)} ({len(obs)} obligations, {seconds:.2f} s)")
+    for o in obs:
+        if o.verdict != "proved":
+            console.print(f"    {o.id} {o.path}: {o.verdict} — {o.reason}", highlight=False, markup=False)
 
 
 def show_refutation(console: Console, result: TheoremResult) -> None:
@@ -65,7 +77,8 @@ def show_refutation(console: Console, result: TheoremResult) -> None:
                       highlight=False, markup=False)
     previous = dict(ref.initial)
     for step in ref.shown:
-        changed = {k: v for k, v in step.state.items() if previous.get(k, v) != v or k == step.target}
+        target = step.target.split("[")[0]  # a family's cell shows as the whole family
+        changed = {k: v for k, v in step.state.items() if previous.get(k, v) != v or k == target}
         previous = step.state
         where = f"[{step.path}] " if step.path else ""
         after = ", ".join(f"{k} = {v}" for k, v in changed.items()) or "no change"

@@ -4,7 +4,8 @@ vacuity check, and by the refuter on loop unrollings).
 `unsolvable` says what to do with an ODE whose solution is not polynomial:
   "error": refuse (needed where an over-approximation of the runs is required);
   "drop":  ignore its runs — an under-approximation, sound for finding a counterexample
-           (a violating run among fewer runs is a violating run) and for proving <a>P.
+           (a violating run among fewer runs is a violating run) and for proving <a>P;
+  "stay":  (for <a>P only) keep just its run of duration 0, also an under-approximation.
 """
 
 from __future__ import annotations
@@ -129,9 +130,9 @@ def diamond(p: Program, post: Node, names, unsolvable: str = "error") -> Node:
     if isinstance(p, Choice):
         return Or(*(diamond(q, post, names, unsolvable) for q in p.alternatives))
     if isinstance(p, ODE):
-        flow = _flow(p, names, unsolvable)
-        if flow is None:
-            return FALSE
+        flow = _flow(p, names, "drop" if unsolvable == "stay" else unsolvable)
+        if flow is None:  # "stay": the run that follows the flow for no time
+            return And(p.domain, post) if unsolvable == "stay" else FALSE
         tau, along, end = flow
         return Exists(tau, And(tau >= 0, along, substitute(post, end)))
     if isinstance(p, Loop):

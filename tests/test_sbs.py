@@ -125,3 +125,38 @@ def test_predictive_control_plane_after_plane_fails_only_for_obtuse_normals(prov
                 Or(*(And(nx2 == a, ny2 == b) for a, b in [(1, 0), (-1, 0), (0, 1)])))
     found, why = refute(replace(theorem, assumptions=And(theorem.assumptions, acute), scenarios=()), 60)
     assert found is None and why.startswith("no violating run"), why
+
+
+# --------------------------------------------------------------------------- vacuity
+
+
+def _without_branch(program, label_prefix):
+    """The program with every choice branch whose label starts with label_prefix removed."""
+    def walk(p):
+        if isinstance(p, Seq):
+            return Seq(tuple(walk(q) for q in p.parts))
+        if isinstance(p, Choice):
+            kept = [(q, lab) for q, lab in zip(p.alternatives, p.labels) if not lab.startswith(label_prefix)]
+            return Choice(tuple(walk(q) for q, _ in kept), tuple(lab for _, lab in kept))
+        if hasattr(p, "body"):
+            return replace(p, body=walk(p.body))
+        return p
+    return walk(program)
+
+
+def test_ctrl2_control_step_provably_never_blocks(prover):
+    result = prover.prove(library.get("sbs.ctrl2_2d"))
+    assert result.verdict == "proved" and result.nonblocking_verdict == "proved"
+    assert any("boundary loop body" in o.path for o in result.nonblocking)
+
+
+@pytest.mark.parametrize("dropped", ["ff9 ", "sa "])
+def test_a_design_that_blocks_is_safe_but_fails_the_vacuity_check(prover, dropped):
+    # dropping a case removes runs, so safety still proves; only the vacuity check notices
+    theorem = library.get("sbs.ctrl2_2d")
+    blocking = replace(theorem, name="ctrl2 missing a case", program=_without_branch(theorem.program, dropped))
+    result = prover.prove(blocking)
+    assert result.verdict == "proved"
+    assert result.nonblocking_verdict == "unknown"
+    failed = [o for o in result.nonblocking if o.verdict != "proved"]
+    assert [o.path.split(" / ")[1] for o in failed] == ["boundary loop body"]

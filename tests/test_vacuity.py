@@ -1,0 +1,37 @@
+"""Vacuity: existentials are only ever strengthened, and a step with no run is caught."""
+
+from certiloop.models import And, Reals, Theorem, assign, havoc, loop, ode, seq
+from certiloop.models import test as guard
+from certiloop.models.terms import Exists, Or
+from certiloop.proofs.engine import discharge_one
+from certiloop.proofs.exact import truth
+from certiloop.proofs.vacuity import nonblocking_obligations, witnessed
+
+x, y, u, D, d, t, e = Reals("x y u D d t e")
+
+
+def test_a_linear_equation_becomes_a_solvable_hypothesis():
+    f = Exists(u, And(u * D == d, u >= 0))
+    w = witnessed(f)
+    assert "exists" not in str(w).lower()
+    # the result implies the original on every state, with u left free
+    for vals in ({"D": 2, "d": 1, "u": 0.5}, {"D": 0, "d": 0, "u": 3}, {"D": 2, "d": -1, "u": -0.5}):
+        if truth(w, vals):
+            assert truth(And(u * D == d, u >= 0), vals)
+
+
+def test_existentials_distribute_over_branches():
+    f = Exists(u, Or(And(u == 1, x >= 0), And(u * 2 == x, x < 0)))
+    w = witnessed(f)
+    assert w.op == "or" and "exists" not in str(w).lower()
+
+
+def test_a_step_that_can_block_is_not_proved_to_run():
+    step = seq(havoc(y), guard(y * y == x), assign(x, y), assign(t, 0), ode({t: 1}, t <= e))
+    blocking = Theorem("t.sqrt", And(x >= -1, e > 0), loop(step, x >= -1), x >= -1, check_nonblocking=True)
+    (ob,) = nonblocking_obligations(blocking)
+    assert discharge_one(ob, 10).verdict != "proved"  # x = -1: no y with y² = x
+    fine = Theorem("t.fine", And(x >= 0, e > 0), loop(seq(havoc(y), guard(y * 2 == x), assign(x, y),
+                                                          assign(t, 0), ode({t: 1}, t <= e)), x >= 0), x >= 0)
+    (ob,) = nonblocking_obligations(fine)
+    assert discharge_one(ob, 10).verdict == "proved"
