@@ -149,7 +149,8 @@ def _no_refutation(r: ObligationResult) -> ObligationResult:
     0), so a counterexample to it only shows where the argument failed, not a blocked state."""
     if r.verdict == "refuted":
         r.verdict = "unknown"
-        r.reason = "not proved: the argument that a run exists fails at the state shown, which may still have one"
+        r.reason = ("not proved: the argument that a run exists fails at the state shown, "
+                    "which may still have one")
     return r
 
 

@@ -69,7 +69,8 @@ def nonblocking_obligations(theorem: Theorem) -> list[Obligation]:
         if segment:
             emit(_describe(segment), facts, seq(*segment))
         changed = set(written(seq(*segment, part)))
-        head = [c for c in facts if not set(free_vars(c)) & changed] + _conjuncts(part.invariant if part.invariant is not None else TRUE)
+        invariant = part.invariant if part.invariant is not None else TRUE
+        head = [c for c in facts if not set(free_vars(c)) & changed] + _conjuncts(invariant)
         pick, body = part.body.parts[:2], seq(*part.body.parts[2:])
         if not (isinstance(pick[0], Havoc) and isinstance(pick[1], Test)):
             raise ValueError("foreach loop body without its pick")

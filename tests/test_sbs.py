@@ -154,7 +154,8 @@ def test_ctrl2_control_step_provably_never_blocks(prover):
 def test_a_design_that_blocks_is_safe_but_fails_the_vacuity_check(prover, dropped):
     # dropping a case removes runs, so safety still proves; only the vacuity check notices
     theorem = library.get("sbs.ctrl2_2d")
-    blocking = replace(theorem, name="ctrl2 missing a case", program=_without_branch(theorem.program, dropped))
+    blocking = replace(theorem, name="ctrl2 missing a case",
+                       program=_without_branch(theorem.program, dropped))
     result = prover.prove(blocking)
     assert result.verdict == "proved"
     assert result.nonblocking_verdict == "unknown"
