@@ -206,13 +206,18 @@ def boundary_step(s: Ctrl2Symbols, i, kt_formula=None, combine=None) -> Program:
 
 
 def _ctrl2(name: str, dim: int, expected: str, description: str, kt_formula=None, combine=None,
-           dynamic: bool = False) -> Theorem:
+           dynamic: bool = False, join_only_when_safe: bool = True) -> Theorem:
     s = Ctrl2Symbols(dim)
     j = s.j
     member = (lambda b: s.active(b)) if dynamic else None
     guarded = (lambda b, f: Implies(s.active(b), f)) if dynamic else (lambda b, f: f)
     inner_inv = And(0 <= s.k, s.k <= 1,
                     ForAll(j, Implies(s.done(j), s.safe_for_step(j, s.k))))
+    if dynamic:
+        # only active boundaries are processed, and the ones joined this step are safe too:
+        # the key lemma (lowering k keeps a processed boundary safe) needs d0 >= 0 for them
+        inner_inv = And(inner_inv, ForAll(j, Implies(s.done(j), s.active(j))),
+                        ForAll(j, guarded(j, s.safe(j))))
     inner = foreach(s.i, s.done, boundary_step(s, s.i, kt_formula, combine), inner_inv,
                     where=member, label="boundary loop")
     plant = ode({**{pc: s.G * fc * s.k for pc, fc in zip(s.p, s.f)},
@@ -222,8 +227,8 @@ def _ctrl2(name: str, dim: int, expected: str, description: str, kt_formula=None
     if dynamic:
         # section 7: any boundary may be removed; a new one joins only on its safe side
         new_active = Family("active_next", B, BOOL)
-        step += [havoc(new_active),
-                 test(ForAll(j, Implies(new_active(j), Or(s.active(j), s.safe(j))))),
+        joins = ForAll(j, Implies(new_active(j), Or(s.active(j), s.safe(j))))
+        step += [havoc(new_active), *([test(joins)] if join_only_when_safe else []),
                  _copy_family(s.active, new_active, j)]
     step += [assign(s.k, 1), inner, assign(s.t, 0), plant]
     return Theorem(
@@ -264,6 +269,14 @@ def ctrl2_dynamic() -> Theorem:
     return _ctrl2("sbs.ctrl2_dynamic", 3, "proved",
                   "section 7: boundaries removed any time, added when the tool is on their safe side",
                   dynamic=True)
+
+
+def ctrl2_dynamic_join_anywhere() -> Theorem:
+    """Mutant of ctrl2_dynamic: a boundary may join wherever the tool is, so the tool can
+    start a step already on the wrong side of a new boundary."""
+    return _ctrl2("sbs.ctrl2_dynamic_join_anywhere", 3, "refuted",
+                  "ctrl2_dynamic mutant: boundaries join without the safe-side check",
+                  dynamic=True, join_only_when_safe=False)
 
 
 def ctrl2_wrong_k() -> Theorem:

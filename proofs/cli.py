@@ -207,13 +207,16 @@ def cmd_gate(args: argparse.Namespace) -> int:
         else:
             entries = run_gate(theorems, prover, opts, cache)
     table = Table(title="certiloop gate")
-    for col in ("model", "expected", "verdict", "obligations", "falsifier", "replay", "kernel", "s", "gate"):
+    columns = ("model", "expected", "verdict", "obligations", "step runs", "falsifier", "replay", "kernel", "s",
+               "gate")
+    for col in columns:
         table.add_column(col, no_wrap=col != "model", overflow="fold")
     for e in entries:
         proved = sum(o["verdict"] == "proved" for o in e.obligations)
         replay = "-" if e.replay is None else ("violates" if e.replay["violated"] else "FAILS")
         kernel = "-" if e.kernel is None else ("matches" if not e.kernel else "DRIFTED")
-        table.add_row(e.model, e.expected, verdict_text(e.verdict), f"{proved}/{len(e.obligations)}",
+        runs = "-" if e.nonblocking is None else verdict_text(e.nonblocking["verdict"])
+        table.add_row(e.model, e.expected, verdict_text(e.verdict), f"{proved}/{len(e.obligations)}", runs,
                       e.falsify.get("verdict", "-"), replay, kernel,
                       f"{e.seconds:.2f}" + (" (cached)" if e.cached else ""),
                       "[green]PASS[/]" if e.passed else "[bold red]FAIL[/]")

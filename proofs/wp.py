@@ -25,6 +25,7 @@ from certiloop.models.terms import (
     Node,
     Or,
     Var,
+    free_vars,
     rebuild,
     store,
     substitute,
@@ -114,10 +115,18 @@ def box(p: Program, post: Node, names, quantify: bool = True, unsolvable: str = 
     raise TypeError(p)
 
 
-def diamond(p: Program, post: Node, names, unsolvable: str = "error") -> Node:
-    """<p>post: some run of p ends in a state satisfying post."""
+def diamond(p: Program, post: Node, names, unsolvable: str = "error", family_witnesses: bool = False) -> Node:
+    """<p>post: some run of p ends in a state satisfying post.
+
+    A whole family chosen by F := * cannot be quantified in our logic; with
+    family_witnesses the runs kept are those choosing one of the same-sorted families the
+    rest mentions (F := G): an under-approximation, sound for proving <p>post."""
     if isinstance(p, Assign):
         return substitute(post, _update(p.target, p.value))
+    if isinstance(p, Havoc) and p.target.op == "var" and p.target.sort.is_array and family_witnesses:
+        name = p.target.payload
+        same = [v for n, v in free_vars(post).items() if v.sort == p.target.sort and n != name]
+        return Or(*(substitute(post, {name: g}) for g in same)) if same else FALSE
     if isinstance(p, Havoc):
         fresh = names.fresh(_root_name(p.target), p.target.sort, "chosen")
         return Exists(fresh, substitute(post, _update(p.target, fresh)))
@@ -125,10 +134,10 @@ def diamond(p: Program, post: Node, names, unsolvable: str = "error") -> Node:
         return And(p.cond, post)
     if isinstance(p, Seq):
         for q in reversed(p.parts):
-            post = diamond(q, post, names, unsolvable)
+            post = diamond(q, post, names, unsolvable, family_witnesses)
         return post
     if isinstance(p, Choice):
-        return Or(*(diamond(q, post, names, unsolvable) for q in p.alternatives))
+        return Or(*(diamond(q, post, names, unsolvable, family_witnesses) for q in p.alternatives))
     if isinstance(p, ODE):
         flow = _flow(p, names, "drop" if unsolvable == "stay" else unsolvable)
         if flow is None:  # "stay": the run that follows the flow for no time

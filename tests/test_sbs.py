@@ -161,3 +161,18 @@ def test_a_design_that_blocks_is_safe_but_fails_the_vacuity_check(prover, droppe
     assert result.nonblocking_verdict == "unknown"
     failed = [o for o in result.nonblocking if o.verdict != "proved"]
     assert [o.path.split(" / ")[1] for o in failed] == ["boundary loop body"]
+
+
+# --------------------------------------------------------------------------- section 7
+
+
+def test_boundaries_may_come_and_go_when_joining_on_the_safe_side(prover):
+    result = prover.prove(library.get("sbs.ctrl2_dynamic"))
+    assert result.verdict == "proved" and result.nonblocking_verdict == "proved"
+    text = library.get("sbs.ctrl2_dynamic").text
+    assert "active_next := *" in text and "active_next[j] -> active[j] |" in text  # joins only when safe
+
+
+def test_a_boundary_joining_on_the_wrong_side_is_caught(prover):
+    result = prover.prove(library.get("sbs.ctrl2_dynamic_join_anywhere"))
+    assert result.verdict == "refuted" and result.refutation.depth == 1
