@@ -207,8 +207,8 @@ def cmd_gate(args: argparse.Namespace) -> int:
         else:
             entries = run_gate(theorems, prover, opts, cache)
     table = Table(title="certiloop gate")
-    columns = ("model", "expected", "verdict", "obligations", "step runs", "falsifier", "replay", "kernel", "s",
-               "gate")
+    columns = ("model", "expected", "verdict", "obligations", "step runs", "falsifier", "replay", "kernel",
+               "s", "gate")
     for col in columns:
         table.add_column(col, no_wrap=col != "model", overflow="fold")
     for e in entries:
