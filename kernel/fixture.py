@@ -19,6 +19,7 @@ import numpy as np
 from . import ctrl2, monitor
 
 ROUNDING = 1e-12  # |k| below this is rounding noise around 0
+NORMAL_NOISE = 1e-12  # normal components below this are rounding noise
 
 
 @dataclass
@@ -141,7 +142,10 @@ def _unit(normal) -> np.ndarray:
         raise ValueError("a plane normal must not be zero")
     if abs(length - 1.0) > monitor.UNIT_TOLERANCE:
         raise ValueError(f"a plane normal must have length 1, got {length:.6g}")
-    return n
+    # components below 1e-12 are rounding noise; kept, a 1e-159 component makes projected
+    # force rates subnormal and the controller's divisions overflow (then it can only stop)
+    n = np.where(np.abs(n) < NORMAL_NOISE, 0.0, n)
+    return n / np.linalg.norm(n)
 
 
 _checked = False

@@ -221,3 +221,15 @@ def test_monitor_rejects_a_gain_the_model_does_not_allow():
     assert not monitor.check_command(1.0, d0, fn, fnp, gain=1.0, period=1.0).ok  # reaches -0.9
     assert monitor.check_command(0.1, d0, fn, fnp, gain=1.0, period=1.0).ok  # exactly reaches 0
     assert not monitor.check_command(float("nan"), d0, fn, fnp, 1.0, 1.0).ok
+
+
+def test_rounding_noise_in_a_normal_does_not_stop_the_tool():
+    # found by hypothesis: a 1e-159 component made the projected rates subnormal
+    normals = [np.array([0.0, 0.0, 1.0])] * 13 + [np.array([0.0, 5.65112199e-159, -1.0])]
+    fixture = VirtualFixture([(np.zeros(3), n) for n in normals], gain=1.0, buffer=1.0, period=1.0)
+    p, f = np.zeros(3), np.zeros(3)
+    for rate in [(0.0, 0.0, 0.0)] * 3 + [(0.0, -1.0, 0.0), (0.0, 2.0, 0.0)]:
+        cmd = fixture.step(p, f, np.array(rate))
+        assert cmd.ok, cmd.reason
+        p = p + cmd.velocity * 1.0 + fixture.gain * cmd.k * np.array(rate) / 2
+        f = f + np.array(rate)
