@@ -36,9 +36,13 @@ def record(name: str, rows: list[dict]) -> None:
     for r in rows:
         print("  ".join(_fmt(r[k]).ljust(w) for k, w in zip(keys, widths)))
     RESULTS.mkdir(exist_ok=True)
+    path = RESULTS / f"{name}.json"
+    if path.exists() and "model" in keys:  # a run over some models keeps the others' rows
+        measured = {r["model"] for r in rows}
+        rows = [r for r in json.loads(path.read_text())["rows"] if r.get("model") not in measured] + rows
     payload = {"benchmark": name, "python": sys.version.split()[0], "machine": platform.machine(),
                "cores": _cores(), "date": time.strftime("%Y-%m-%d"), "rows": rows}
-    (RESULTS / f"{name}.json").write_text(json.dumps(payload, indent=2) + "\n")
+    path.write_text(json.dumps(payload, indent=2) + "\n")
 
 
 def _cores() -> int:
