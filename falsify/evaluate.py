@@ -16,7 +16,7 @@ import math
 from fractions import Fraction
 from typing import Any, Callable
 
-from certiloop.models.terms import BOOL, INT, ModelError, Node
+from certiloop.models.lang.terms import BOOL, INT, ModelError, Node
 
 Key = str | tuple[str, tuple]  # a symbol, or (array, index tuple) for one cell
 Fn = Callable[[dict[str, Any]], Any]

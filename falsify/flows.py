@@ -15,10 +15,9 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from certiloop.models.programs import ODE
-from certiloop.proofs.wp import flow_solution
-
-from .evaluate import Blocked, Compiler, margin
+from certiloop.falsify.evaluate import Blocked, Compiler, margin
+from certiloop.models.lang.programs import ODE
+from certiloop.proofs.core.wp import flow_solution
 
 GRID = 64  # samples when locating where a closed-form flow leaves its domain
 WATCH_SAMPLES = 33  # samples along a flow for the guarantee's margins (plots, targeting)
@@ -133,9 +132,9 @@ class Flow:
 
     def _check_exact(self, state, tau) -> None:
         """The domain must hold along the whole flow, decided exactly."""
-        from certiloop.models.terms import Var
-        from certiloop.proofs.exact import truth
-        from certiloop.proofs.odes import holds_along
+        from certiloop.models.lang.terms import Var
+        from certiloop.proofs.core.exact import truth
+        from certiloop.proofs.core.odes import holds_along
 
         if self.symbolic is None:
             raise Inexact(f"the ODE {self.ode} has no closed-form solution")
@@ -171,9 +170,8 @@ def _last_inside(g, start: float, end: float, depth: int) -> float:
 
 def exact_view(state: dict[str, Any]) -> dict[str, Any]:
     """The state as proofs.exact expects it (arrays as ArrayValue, universes as lists)."""
-    from certiloop.proofs.smt import ArrayValue
-
-    from .evaluate import Table
+    from certiloop.falsify.evaluate import Table
+    from certiloop.proofs.core.solver import ArrayValue
 
     out = {}
     for name, value in state.items():

@@ -17,10 +17,9 @@ from collections import Counter
 from fractions import Fraction
 from typing import Any
 
-from certiloop.models.terms import INT, Node
-
-from .evaluate import Blocked, NeedValue, Table
-from .interpreter import Rejected, get, put, remove, solve_linear
+from certiloop.falsify.evaluate import Blocked, NeedValue, Table
+from certiloop.falsify.state import Rejected, get, put, remove, solve_linear
+from certiloop.models.lang.terms import INT, Node
 
 REPAIR_PASSES = 3
 
@@ -60,7 +59,7 @@ def _instances(interp, f: Node, env: dict[str, Any], s, chooser) -> list[tuple[N
     if f.op == "forall" and all(not v.sort.is_numeric and not v.sort.is_array for v in f.payload):
         from itertools import product
 
-        from .evaluate import universe
+        from certiloop.falsify.evaluate import universe
 
         names = [v.payload for v in f.payload]
         pools = [universe(s, v.sort) for v in f.payload]

@@ -19,21 +19,28 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from certiloop.models.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, program_symbols
-from certiloop.models.terms import BOOL, INT, ModelError, Node, free_vars
-from certiloop.models.theorem import Theorem
-
-from .choosers import Chooser
-from .evaluate import OPEN, Blocked, Compiler, NeedValue, Table, margin, universe
-from .flows import Flow
+from certiloop.falsify.choosers import Chooser
+from certiloop.falsify.evaluate import OPEN, Blocked, Compiler, NeedValue, Table, margin, universe
+from certiloop.falsify.flows import Flow
+from certiloop.falsify.initial import initial_state
+from certiloop.falsify.state import Rejected, put, remove, solve_linear
+from certiloop.models.lang.programs import (
+    ODE,
+    Assign,
+    Choice,
+    Havoc,
+    Loop,
+    Program,
+    Seq,
+    Test,
+    program_symbols,
+)
+from certiloop.models.lang.terms import BOOL, INT, ModelError, Node, free_vars
+from certiloop.models.lang.theorem import Theorem
 
 HORIZON = 10.0  # longest duration of an ODE without a time bound in its domain
 LOOP_BOUND = 1000  # iterations of an inner loop before the run is abandoned
 OPEN_LOOP_ITERATIONS = 3  # at most this many iterations of a loop with no exit test
-
-
-class Rejected(Exception):
-    """The chosen initial state does not satisfy the assumptions."""
 
 
 class _Violated(Exception):
@@ -99,7 +106,6 @@ class Interpreter:
             checked: bool = False) -> Run:
         """One run; from `initial` (which must satisfy the assumptions, unless the caller
         `checked` that exactly already) or from a drawn state."""
-        from .initial import initial_state
 
         self.chooser, self.out = chooser, Run()
         self.path: list[str] = []
@@ -343,33 +349,6 @@ def _keep_known(out: dict[str, float], label: str, fn, s) -> None:
         pass
 
 
-def solve_linear(lhs, rhs, key, s: dict[str, Any], exact: bool):
-    """x with lhs(x) = rhs(x), if both sides are affine in the open value `key` (else None).
-    The sides are kept apart so that `x*G*X = 1` gives x = 1/(G*X) without cancellation."""
-    old = get(s, key)
-    try:
-        values = []
-        for x in (0, 1, 2):
-            put(s, key, Fraction(x) if exact else float(x))
-            values.append((lhs(s), rhs(s)))
-    except (NeedValue, Blocked):
-        return None
-    finally:
-        remove(s, key) if old is None else put(s, key, old)
-    (l0, r0), (l1, r1), (l2, r2) = values
-    slope_l, slope_r = l1 - l0, r1 - r0
-    if exact:
-        if l2 - l1 != slope_l or r2 - r1 != slope_r:
-            return None
-    elif (abs((l2 - l1) - slope_l) > 1e-9 * (1 + abs(slope_l))
-          or abs((r2 - r1) - slope_r) > 1e-9 * (1 + abs(slope_r))):
-        return None
-    slope = slope_l - slope_r
-    if slope == 0:
-        return None
-    return (r0 - l0) / slope
-
-
 def _conjuncts(f: Node) -> list[Node]:
     if f.op == "and":
         return [a for x in f.args for a in _conjuncts(x)]
@@ -426,7 +405,7 @@ def _bound_sorts(f: Node, visit) -> None:
 
 
 def cell_of(target: Node, s: dict[str, Any], interp: Interpreter) -> tuple[str, tuple]:
-    from .evaluate import _index
+    from certiloop.falsify.evaluate import _index
 
     root, idx = target.args[0], target.args[1:]
     return root.payload, tuple(_index(interp._value(interp.c(i), s)) for i in idx)
@@ -441,31 +420,6 @@ def store(s: dict[str, Any], target: Node, value: Any, interp: Interpreter) -> N
     if not isinstance(table, Table):
         table = s[name] = Table()
     table.cells[idx] = value
-
-
-def put(s: dict[str, Any], key, value: Any) -> None:
-    if isinstance(key, str):
-        s[key] = value
-    else:
-        table = s.get(key[0])
-        if not isinstance(table, Table):
-            table = s[key[0]] = Table()
-        table.cells[key[1]] = value
-
-
-def get(s: dict[str, Any], key) -> Any:
-    """The value at a symbol or cell, None while it is open."""
-    if isinstance(key, str):
-        return s.get(key)
-    table = s.get(key[0])
-    return table.read(key[1]) if isinstance(table, Table) else None
-
-
-def remove(s: dict[str, Any], key) -> None:
-    if isinstance(key, str):
-        s.pop(key, None)
-    elif isinstance(s.get(key[0]), Table):
-        s[key[0]].cells.pop(key[1], None)
 
 
 def copy_state(s: dict[str, Any]) -> dict[str, Any]:

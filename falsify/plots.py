@@ -8,7 +8,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from .interpreter import Run
+from certiloop.falsify.interpreter import Run
 
 
 def plot_run(run: Run, model: str, path: Path) -> None:

@@ -16,14 +16,13 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from certiloop.models.programs import Loop, children
-from certiloop.models.theorem import Theorem
-
-from .choosers import Chooser, Diverged
-from .evaluate import Blocked, Table
-from .flows import Inexact
-from .interpreter import Interpreter, Rejected, Run
-from .search import FLOAT_TOLERANCE
+from certiloop.falsify.choosers import Chooser, Diverged
+from certiloop.falsify.evaluate import Blocked, Table
+from certiloop.falsify.flows import Inexact
+from certiloop.falsify.interpreter import Interpreter, Rejected, Run
+from certiloop.falsify.search import FLOAT_TOLERANCE
+from certiloop.models.lang.programs import Loop, children
+from certiloop.models.lang.theorem import Theorem
 
 
 @dataclass
@@ -88,8 +87,8 @@ class Values:
         return x
 
     def convert(self, value: Any) -> Any:
-        from certiloop.proofs.interval import Interval
-        from certiloop.proofs.smt import ArrayValue
+        from certiloop.proofs.core.interval import Interval
+        from certiloop.proofs.core.solver import ArrayValue
 
         if isinstance(value, ArrayValue):
             cells = {tuple(self.element(i) for i in k): self.convert(v) for k, v in value.entries.items()}
@@ -158,7 +157,7 @@ class TraceChooser(Chooser):
         self.at = 0
 
     def outer_steps(self, theorem: Theorem) -> int:
-        from .interpreter import _outer_loop
+        from certiloop.falsify.interpreter import _outer_loop
 
         top = _outer_loop(theorem.program)
         return self.iterations.get(top.label, 0) if top is not None else 0

@@ -6,7 +6,7 @@ from typing import Any
 
 from rich.console import Console
 
-from .search import Falsification
+from certiloop.falsify.search import Falsification
 
 
 def show_falsification(console: Console, result: Falsification) -> None:

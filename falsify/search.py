@@ -22,12 +22,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from certiloop.models.theorem import Theorem
-
-from .choosers import Diverged, HypothesisChooser, Recording, Scripted
-from .evaluate import Blocked
-from .flows import Inexact
-from .interpreter import Interpreter, Rejected, Run
+from certiloop.falsify.choosers import Diverged, HypothesisChooser, Recording, Scripted
+from certiloop.falsify.evaluate import Blocked
+from certiloop.falsify.flows import Inexact
+from certiloop.falsify.interpreter import Interpreter, Rejected, Run
+from certiloop.models.lang.theorem import Theorem
 
 SHRINK_SECONDS = 15  # hypothesis shrinks for up to 5 minutes by default; a trace this
 # short is readable, and CI must not wait minutes for a smaller one

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from .fixture import VirtualFixture
+from certiloop.kernel.fixture import VirtualFixture
 
 G, D, EPS = 1.0, 0.5, 0.0182  # the paper's control delay ε = 18.2 ms
 PLANES = [((0, 0, 0), (1, 0, 0)), ((0, 0, 0), (0, 1, 0)), ((0, 0, 0), (0, 0, 1))]

@@ -16,7 +16,7 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from . import ctrl2, monitor
+from certiloop.kernel import ctrl2, monitor
 
 ROUNDING = 1e-12  # |k| below this is rounding noise around 0
 NORMAL_NOISE = 1e-12  # normal components below this are rounding noise

@@ -1,6 +1,6 @@
 """certiloop.models: the modelling language (terms, formulas, hybrid programs, theorems)."""
 
-from .programs import (
+from certiloop.models.lang.programs import (
     ODE,
     Assign,
     Choice,
@@ -23,7 +23,7 @@ from .programs import (
     skip,
     test,
 )
-from .terms import (
+from certiloop.models.lang.terms import (
     BOOL,
     FALSE,
     INT,
@@ -52,6 +52,6 @@ from .terms import (
     Var,
     dot,
 )
-from .theorem import Theorem
+from certiloop.models.lang.theorem import Theorem
 
 __all__ = [name for name in dir() if not name.startswith("_")]

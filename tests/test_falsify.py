@@ -11,11 +11,11 @@ from certiloop.falsify.interpreter import Interpreter, Rejected
 from certiloop.falsify.replay import replay_refutation
 from certiloop.falsify.search import Options, falsify
 from certiloop.models import library
-from certiloop.models.programs import assign, havoc, loop, ode, seq
-from certiloop.models.programs import test as check
-from certiloop.models.terms import And, Reals
-from certiloop.models.theorem import Theorem
-from certiloop.proofs.refute import refute
+from certiloop.models.lang.programs import assign, havoc, loop, ode, seq
+from certiloop.models.lang.programs import test as check
+from certiloop.models.lang.terms import And, Reals
+from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.refute.search import refute
 
 REFUTED = [n for n in library.names() if library.get(n).expected == "refuted"]
 PROVED_SBS = ["sbs.ctrl1", "sbs.predictive", "sbs.ctrl2_2d", "sbs.ctrl2"]
@@ -153,7 +153,7 @@ def test_a_tampered_counterexample_does_not_replay():
 
 
 def test_cli_falsify_json_plot_and_exit_codes(tmp_path):
-    from certiloop.proofs.cli import main
+    from certiloop.proofs.cli.main import main
 
     out_json, out_png = tmp_path / "f.json", tmp_path / "f.png"
     code = main(["falsify", "textbook.water_tank_late_check", "--max-examples", "200",
@@ -169,7 +169,7 @@ def test_cli_falsify_json_plot_and_exit_codes(tmp_path):
 @pytest.mark.parametrize("argv", [["falsify", "sbs.nope"], ["falsify", "sbs.ctrl1", "--max-examples", "0"],
                                   ["falsify", "sbs.ctrl1", "--plot", "x.pdf"]])
 def test_cli_falsify_bad_input_exits_2(argv, capsys):
-    from certiloop.proofs.cli import main
+    from certiloop.proofs.cli.main import main
 
     assert main(argv) == 2
     assert capsys.readouterr().err.count("\n") == 1

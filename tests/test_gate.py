@@ -5,11 +5,11 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from certiloop.proofs import gate as gate_module
-from certiloop.proofs.cache import Cache
-from certiloop.proofs.cli import main
-from certiloop.proofs.engine import Prover
-from certiloop.proofs.loading import project_models
+from certiloop.proofs.cli import gate as gate_module
+from certiloop.proofs.cli.loading import project_models
+from certiloop.proofs.cli.main import main
+from certiloop.proofs.engine.cache import Cache
+from certiloop.proofs.engine.prover import Prover
 
 SMALL = ["sbs.ctrl1", "sbs.ctrl1_broken", "textbook.water_tank_late_check"]
 

@@ -14,8 +14,8 @@ from certiloop.falsify.interpreter import Interpreter
 from certiloop.kernel import VirtualFixture, ctrl2
 from certiloop.kernel.extract import ExtractError, controller, extract, shipped_drift
 from certiloop.models import library
-from certiloop.models.terms import TRUE
-from certiloop.models.theorem import Theorem
+from certiloop.models.lang.terms import TRUE
+from certiloop.models.lang.theorem import Theorem
 
 CTRL2 = library.get("sbs.ctrl2")
 # The kernel evaluates the model's own formulas (same terms, same order, except that a

@@ -3,7 +3,7 @@
 import pytest
 
 from certiloop.models import library
-from certiloop.proofs.engine import Prover
+from certiloop.proofs.engine.prover import Prover
 
 
 @pytest.fixture(scope="module")

@@ -16,8 +16,8 @@ from certiloop.models import (
     seq,
 )
 from certiloop.models import test as guard
-from certiloop.models.programs import written
-from certiloop.models.sbs import ctrl1
+from certiloop.models.lang.programs import written
+from certiloop.models.library.sbs import ctrl1
 
 x, y, G, D = Reals("x y G D")
 

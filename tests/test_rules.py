@@ -20,10 +20,10 @@ from certiloop.models import (
     seq,
 )
 from certiloop.models import test as guard
-from certiloop.proofs.engine import discharge_one
-from certiloop.proofs.exact import truth
-from certiloop.proofs.odes import holds_along, lie_derivative, polynomial_solution
-from certiloop.proofs.vcgen import generate
+from certiloop.proofs.core.exact import truth
+from certiloop.proofs.core.odes import holds_along, lie_derivative, polynomial_solution
+from certiloop.proofs.core.vcgen import generate
+from certiloop.proofs.engine.prover import discharge_one
 
 x, y, v, a, t, e, s, tau = Reals("x y v a t e s tau")
 

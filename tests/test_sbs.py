@@ -6,12 +6,12 @@ from fractions import Fraction
 import pytest
 
 from certiloop.models import library
-from certiloop.models.programs import Assign, Choice, Seq, assign
-from certiloop.models.terms import And, Or, Reals
-from certiloop.proofs.engine import Prover, discharge_one
-from certiloop.proofs.interval import Interval
-from certiloop.proofs.refute import refute
-from certiloop.proofs.vcgen import generate
+from certiloop.models.lang.programs import Assign, Choice, Seq, assign
+from certiloop.models.lang.terms import And, Or, Reals
+from certiloop.proofs.core.interval import Interval
+from certiloop.proofs.core.vcgen import generate
+from certiloop.proofs.engine.prover import Prover, discharge_one
+from certiloop.proofs.refute.search import refute
 
 
 @pytest.fixture(scope="module")

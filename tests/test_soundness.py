@@ -9,13 +9,13 @@ from hypothesis import strategies as st
 
 from certiloop.models import And, Reals, Theorem, assign, havoc, library, loop, ode, seq
 from certiloop.models import test as guard
-from certiloop.models.programs import ODE, Choice, Loop, Seq, Test
-from certiloop.models.terms import cmp
-from certiloop.proofs import interval as iv
-from certiloop.proofs.engine import Prover, discharge_one
-from certiloop.proofs.exact import truth
-from certiloop.proofs.refute import refute
-from certiloop.proofs.vcgen import generate
+from certiloop.models.lang.programs import ODE, Choice, Loop, Seq, Test
+from certiloop.models.lang.terms import cmp
+from certiloop.proofs.core import interval as iv
+from certiloop.proofs.core.exact import truth
+from certiloop.proofs.core.vcgen import generate
+from certiloop.proofs.engine.prover import Prover, discharge_one
+from certiloop.proofs.refute.search import refute
 
 # Models small enough to discharge every obligation at full strength in the test suite; the
 # 144-branch ctrl2 family is covered by its exactly re-checked refutation runs instead.
@@ -47,7 +47,7 @@ def _mutate_tests(program, op_map, counter, target):
                 return cmp(op_map[f.payload], *f.args)
             return f
         if f.op in ("and", "or", "not", "implies"):
-            from certiloop.models.terms import rebuild
+            from certiloop.models.lang.terms import rebuild
 
             return rebuild(f, tuple(cond(a) for a in f.args))
         return f

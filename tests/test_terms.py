@@ -18,7 +18,7 @@ from certiloop.models import (
     Reals,
     dot,
 )
-from certiloop.models.terms import free_vars, substitute
+from certiloop.models.lang.terms import free_vars, substitute
 
 x, y, z = Reals("x y z")
 
@@ -60,7 +60,7 @@ def test_families_and_arrays():
     n = Family("n", B)
     with pytest.raises(ModelError, match="sort Real, expected B"):
         n(i)
-    from certiloop.models.terms import Var
+    from certiloop.models.lang.terms import Var
 
     j = Var("j", B)
     assert n(j).sort.name == "Real"

@@ -2,10 +2,10 @@
 
 from certiloop.models import And, Reals, Theorem, assign, havoc, loop, ode, seq
 from certiloop.models import test as guard
-from certiloop.models.terms import Exists, Or
-from certiloop.proofs.engine import discharge_one
-from certiloop.proofs.exact import truth
-from certiloop.proofs.vacuity import nonblocking_obligations, witnessed
+from certiloop.models.lang.terms import Exists, Or
+from certiloop.proofs.core.exact import truth
+from certiloop.proofs.core.vacuity import nonblocking_obligations, witnessed
+from certiloop.proofs.engine.prover import discharge_one
 
 x, y, u, D, d, t, e = Reals("x y u D d t e")
 

@@ -1,0 +1,1 @@
+"""The modelling language: terms and formulas, hybrid programs, theorems, printing."""

@@ -1,0 +1,412 @@
+"""Hybrid programs: x := e, x := *, ?Q, a;b, a ∪ b, a* (with invariant), ODE systems.
+
+Conveniences (`if_`, `for_range`, `assign_min`, `foreach`) expand to these, so the proof
+engine and the interpreter only ever see the core constructs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+from certiloop.models.lang.printing import show_program
+from certiloop.models.lang.terms import (
+    BOOL,
+    INT,
+    TRUE,
+    And,
+    ForAll,
+    Implies,
+    ModelError,
+    Node,
+    Not,
+    Var,
+    formula,
+    free_vars,
+    term,
+)
+
+
+class Program:
+    """Base class of hybrid programs; `a >> b` is sequence, `a | b` is choice."""
+
+    @property
+    def key(self) -> tuple:
+        raise NotImplementedError
+
+    def __rshift__(self, other: "Program") -> "Program":
+        return seq(self, other)
+
+    def __or__(self, other: "Program") -> "Program":
+        return choice(self, other)
+
+    def symbols(self) -> dict[str, Node]:
+        """Every symbol the program mentions (read or written), by name."""
+        return program_symbols(self)
+
+    def __str__(self) -> str:
+        return show_program(self)
+
+    __repr__ = __str__
+
+
+def _target_root(target: Node) -> Node:
+    while target.op == "select":
+        target = target.args[0]
+    return target
+
+
+def _check_target(target: Node) -> Node:
+    if not isinstance(target, Node) or (target.op != "var" and target.op != "select"):
+        raise ModelError(f"cannot assign to `{target}`: only symbols and array cells are assignable")
+    if target.op == "select" and target.sort.is_array:
+        raise ModelError(f"cannot assign to the partial array read `{target}`; index it fully")
+    if target.op == "var" and target.sort.is_array:
+        raise ModelError(f"cannot assign the whole array `{target}`; assign its cells")
+    return target
+
+
+@dataclass(frozen=True, eq=False)
+class Assign(Program):
+    target: Node
+    value: Node
+
+    @property
+    def key(self):
+        return ("assign", self.target.key, self.value.key)
+
+
+@dataclass(frozen=True, eq=False)
+class Havoc(Program):
+    """x := * (nondeterministic assignment)."""
+
+    target: Node
+
+    @property
+    def key(self):
+        return ("havoc", self.target.key)
+
+
+@dataclass(frozen=True, eq=False)
+class Test(Program):
+    cond: Node
+    __test__ = False  # not a pytest test class
+
+    @property
+    def key(self):
+        return ("test", self.cond.key)
+
+
+@dataclass(frozen=True, eq=False)
+class Seq(Program):
+    parts: tuple[Program, ...]
+
+    @property
+    def key(self):
+        return ("seq", tuple(p.key for p in self.parts))
+
+
+@dataclass(frozen=True, eq=False)
+class Choice(Program):
+    """Nondeterministic choice; each alternative has a label used in proof paths."""
+
+    alternatives: tuple[Program, ...]
+    labels: tuple[str, ...]
+
+    @property
+    def key(self):
+        return ("choice", tuple(p.key for p in self.alternatives), self.labels)
+
+
+@dataclass(frozen=True)
+class Each:
+    """Marks a loop made by `foreach`: it visits every element of a finite family once,
+    which is what lets the vacuity check conclude that the loop can always finish."""
+
+    index: Node
+    done: Node
+    member: Node  # formula over `index`: the elements to visit
+
+
+@dataclass(frozen=True, eq=False)
+class Loop(Program):
+    """a* with an invariant annotation (None: the proof uses the postcondition)."""
+
+    body: Program
+    invariant: Node | None = None
+    label: str = "loop"
+    each: Each | None = None  # set by foreach; not part of the semantics
+
+    @property
+    def key(self):
+        inv = self.invariant.key if self.invariant is not None else None
+        return ("loop", self.body.key, inv, self.label)
+
+
+@dataclass(frozen=True, eq=False)
+class ODE(Program):
+    """{x1' = f1, ..., xn' = fn & domain}.
+
+    invariants: differential invariants proved in order (each may use the earlier ones:
+    a differential-cut chain). With none given, the engine solves the system when its
+    solution is polynomial in time and otherwise uses differential weakening.
+    """
+
+    eqs: tuple[tuple[Node, Node], ...]
+    domain: Node = TRUE
+    invariants: tuple[Node, ...] = field(default=())
+
+    @property
+    def key(self):
+        return (
+            "ode",
+            tuple((v.key, f.key) for v, f in self.eqs),
+            self.domain.key,
+            tuple(i.key for i in self.invariants),
+        )
+
+    @property
+    def variables(self) -> tuple[Node, ...]:
+        return tuple(v for v, _ in self.eqs)
+
+
+# --------------------------------------------------------------------------- constructors
+
+
+def assign(target: Node, value: Any) -> Assign:
+    target = _check_target(target)
+    value = term(value) if target.sort != BOOL else formula(value)
+    if target.sort != value.sort and not (target.sort.is_numeric and value.sort.is_numeric):
+        raise ModelError(f"cannot assign `{value}` ({value.sort}) to `{target}` ({target.sort})")
+    if target.sort == INT and value.sort != INT:
+        raise ModelError(f"cannot assign the real term `{value}` to the integer `{target}`")
+    return Assign(target, value)
+
+
+def havoc(target: Node) -> Havoc:
+    """x := *, a[i] := *, or a := * for a whole array or family (every entry arbitrary)."""
+    if isinstance(target, Node) and target.op == "var" and target.sort.is_array:
+        return Havoc(target)
+    return Havoc(_check_target(target))
+
+
+def test(cond: Any) -> Test:
+    return Test(formula(cond))
+
+
+def seq(*parts: Program) -> Program:
+    flat: list[Program] = []
+    for p in parts:
+        if not isinstance(p, Program):
+            raise ModelError(f"expected a hybrid program in a sequence, got {p!r}")
+        flat.extend(p.parts if isinstance(p, Seq) else (p,))
+    return flat[0] if len(flat) == 1 else Seq(tuple(flat))
+
+
+def branch(label: str, *parts: Program) -> tuple[str, Program]:
+    """A labelled alternative for `choice`: choice(branch('free zone', ...), ...)."""
+    return (label, seq(*parts))
+
+
+def choice(*alternatives: Program | tuple[str, Program]) -> Choice:
+    progs: list[Program] = []
+    labels: list[str] = []
+    for alt in alternatives:
+        label, prog = alt if isinstance(alt, tuple) else (None, alt)
+        if not isinstance(prog, Program):
+            raise ModelError(f"expected a hybrid program in a choice, got {prog!r}")
+        if label is None and isinstance(prog, Choice):
+            progs.extend(prog.alternatives)
+            labels.extend(prog.labels)
+            continue
+        progs.append(prog)
+        labels.append(label or f"branch {len(labels) + 1}")
+    if len(set(labels)) != len(labels):
+        labels = [f"{lab} #{i}" for i, lab in enumerate(labels, 1)]
+    return Choice(tuple(progs), tuple(labels))
+
+
+def loop(body: Program, invariant: Any = None, label: str = "loop") -> Loop:
+    inv = formula(invariant) if invariant is not None else None
+    return Loop(body, inv, label)
+
+
+def ode(eqs: dict[Node, Any] | list[tuple[Node, Any]], domain: Any = TRUE,
+        invariants: tuple[Any, ...] | list[Any] = ()) -> ODE:
+    pairs = list(eqs.items()) if isinstance(eqs, dict) else list(eqs)
+    seen: set[str] = set()
+    out = []
+    for v, f in pairs:
+        if not isinstance(v, Node) or v.op != "var" or not v.sort.is_numeric:
+            raise ModelError(f"ODE left-hand side `{v}` must be a real symbol")
+        if v.name in seen:
+            raise ModelError(f"ODE gives {v.name}' twice; each variable needs exactly one equation")
+        seen.add(v.name)
+        out.append((v, term(f)))
+    if not out:
+        raise ModelError("an ODE system needs at least one equation")
+    return ODE(tuple(out), formula(domain), tuple(formula(i) for i in invariants))
+
+
+def skip() -> Test:
+    return Test(TRUE)
+
+
+def if_(cond: Any, then: Program, otherwise: Program | None = None,
+        labels: tuple[str, str] = ("then", "else")) -> Choice:
+    c = formula(cond)
+    return choice(branch(labels[0], test(c), then), branch(labels[1], test(Not(c)), otherwise or skip()))
+
+
+def assign_min(target: Node, a: Any, b: Any) -> Choice:
+    """target := min(a, b), as the two-case choice the proof will split on."""
+    a, b = term(a), term(b)
+    return choice(
+        branch(f"{b} >= {a}", test(b >= a), assign(target, a)),
+        branch(f"{b} < {a}", test(b < a), assign(target, b)),
+    )
+
+
+def for_range(var: Node, lo: Any, hi: Any, body: Program, invariant: Any,
+              label: str | None = None) -> Program:
+    """for var in [lo, hi): body — a bounded loop; the invariant may mention `var`.
+
+    Expands to  var := lo; (?var < hi; body; var := var + 1)*; ?var >= hi,
+    with invariant `lo <= var <= hi ∧ invariant` so users only state what the body keeps.
+    """
+    if var.sort != INT:
+        raise ModelError(f"the loop counter `{var}` must be an Int symbol")
+    lo, hi = term(lo), term(hi)
+    inv = And(lo <= var, var <= hi, formula(invariant))
+    step = seq(test(var < hi), body, assign(var, var + 1))
+    return seq(assign(var, lo), loop(step, inv, label or f"for {var.name}"), test(var >= hi))
+
+
+def foreach(index: Node, done: Node, body: Program, invariant: Any,
+            where: Callable[[Node], Node] | None = None, label: str | None = None) -> Program:
+    """Run `body` once for every element `index` of a finite family (in any order).
+
+    `done` is a Bool family over the index sort that the invariant may mention: it marks
+    the elements processed so far. `where(j)` restricts the family (e.g. active boundaries).
+    Expands to
+        done := *; ?∀j ¬done(j);
+        (index := *; ?¬done(index) ∧ where(index); body; done(index) := true)*  {invariant}
+        ?∀j (where(j) -> done(j))
+    The proof never needs the family's size: the invariant is quantified over it.
+    """
+    if index.op != "var" or index.sort.is_array or index.sort.is_numeric or index.sort == BOOL:
+        raise ModelError(f"foreach needs a symbol of an index sort, got `{index}`")
+    if done.op != "var" or done.sort.domain != (index.sort,) or done.sort.range != BOOL:
+        raise ModelError(f"foreach: `{done}` must be a Bool family over {index.sort}")
+    other = Var(f"{index.name}_", index.sort)
+    member = where or (lambda _j: TRUE)
+    step = seq(havoc(index), test(And(Not(done(index)), member(index))), body,
+               assign(done(index), TRUE))
+    body = loop(step, invariant, label or f"foreach {index.name}")
+    body = Loop(body.body, body.invariant, body.label, Each(index, done, formula(member(index))))
+    return seq(
+        havoc(done),
+        test(ForAll(other, Not(done(other)))),
+        body,
+        test(ForAll(other, Implies(member(other), done(other)))),
+    )
+
+
+# --------------------------------------------------------------------------- static semantics
+
+
+def children(p: Program) -> tuple[Program, ...]:
+    """The sub-programs of a compound program (none for atomic statements)."""
+    if isinstance(p, Seq):
+        return p.parts
+    if isinstance(p, Choice):
+        return p.alternatives
+    if isinstance(p, Loop):
+        return (p.body,)
+    return ()
+
+
+def written(p: Program) -> dict[str, Node]:
+    """Symbols a program may change (array cells count as their array), by name."""
+    out: dict[str, Node] = {}
+    if isinstance(p, (Assign, Havoc)):
+        root = _target_root(p.target)
+        out[root.name] = root
+    elif isinstance(p, ODE):
+        out.update((v.name, v) for v in p.variables)
+    for q in children(p):
+        out.update(written(q))
+    return out
+
+
+def program_symbols(p: Program) -> dict[str, Node]:
+    """Every symbol a program mentions (read or written), by name."""
+    out: dict[str, Node] = {}
+    formulas: list[Node] = []
+    if isinstance(p, Assign):
+        formulas = [p.target, p.value]
+    elif isinstance(p, Havoc):
+        formulas = [p.target]
+    elif isinstance(p, Test):
+        formulas = [p.cond]
+    elif isinstance(p, ODE):
+        out.update((v.name, v) for v in p.variables)
+        formulas = [f for _, f in p.eqs] + [p.domain, *p.invariants]
+    elif isinstance(p, Loop) and p.invariant is not None:
+        formulas = [p.invariant]
+    for f in formulas:
+        out.update(free_vars(f))
+    for q in children(p):
+        out.update(program_symbols(q))
+    return out
+
+
+def read_first(p: Program) -> dict[str, Node]:
+    """Symbols whose value at the start of `p` some run may read: those read before every
+    assignment to them on some path. The others' initial values cannot matter. An array
+    counts as read whenever a cell of it is (one cell's assignment does not define it)."""
+    reads: dict[str, Node] = {}
+
+    def note(f: Node, defined: frozenset) -> None:
+        reads.update((n, v) for n, v in free_vars(f).items() if n not in defined)
+
+    def walk(q: Program, defined: frozenset) -> frozenset:
+        if isinstance(q, (Assign, Havoc)):
+            target = q.target
+            for index in target.args[1:] if target.op == "select" else ():
+                note(index, defined)
+            if isinstance(q, Assign):
+                note(q.value, defined)
+            if target.op == "var":
+                return defined | {target.payload}
+            note(_target_root(target), defined)  # the other cells keep their values
+            return defined
+        if isinstance(q, Test):
+            note(q.cond, defined)
+            return defined
+        if isinstance(q, ODE):
+            for v, f in q.eqs:
+                note(v, defined)
+                note(f, defined)
+            note(q.domain, defined)
+            return defined
+        if isinstance(q, Seq):
+            for part in q.parts:
+                defined = walk(part, defined)
+            return defined
+        if isinstance(q, Choice):
+            after = [walk(a, defined) for a in q.alternatives]
+            return frozenset.intersection(*after) if after else defined
+        if isinstance(q, Loop):
+            if q.invariant is not None:
+                note(q.invariant, defined)
+            walk(q.body, defined)
+            return defined  # the body may run zero times
+        raise TypeError(q)
+
+    walk(p, frozenset())
+    return reads
+
+
+def is_loop_free(p: Program) -> bool:
+    return not isinstance(p, Loop) and all(is_loop_free(q) for q in children(p))

@@ -1,0 +1,52 @@
+"""The model library: dotted names -> theorem builders, in the order `certiloop list` shows."""
+
+from __future__ import annotations
+
+import difflib
+from typing import Callable
+
+from certiloop.models.lang.terms import ModelError
+from certiloop.models.lang.theorem import Theorem
+from certiloop.models.library import cfmpa, sbs, textbook
+
+_BUILDERS: dict[str, Callable[[], Theorem]] = {
+    "sbs.ctrl1": sbs.ctrl1,
+    "sbs.ctrl1_broken": sbs.ctrl1_broken,
+    "sbs.immediate": sbs.immediate,
+    "sbs.predictive": sbs.predictive,
+    "sbs.predictive_multi": sbs.predictive_multi,
+    "sbs.eqn12": sbs.eqn12,
+    "sbs.ctrl2_2d": sbs.ctrl2_2d,
+    "sbs.ctrl2": sbs.ctrl2,
+    "sbs.ctrl2_dynamic": sbs.ctrl2_dynamic,
+    "sbs.ctrl2_wrong_k": sbs.ctrl2_wrong_k,
+    "sbs.ctrl2_last_wins": sbs.ctrl2_last_wins,
+    "sbs.ctrl2_dynamic_join_anywhere": sbs.ctrl2_dynamic_join_anywhere,
+    "cfmpa.builtdr": cfmpa.builtdr,
+    "cfmpa.builtdr_skips_last_row": cfmpa.builtdr_skips_last_row,
+    "textbook.bouncing_ball": textbook.bouncing_ball,
+    "textbook.bouncing_ball_superelastic": textbook.bouncing_ball_superelastic,
+    "textbook.train": textbook.train,
+    "textbook.train_no_lookahead": textbook.train_no_lookahead,
+    "textbook.water_tank": textbook.water_tank,
+    "textbook.water_tank_late_check": textbook.water_tank_late_check,
+    "textbook.cart_forward": textbook.cart_forward,
+    "textbook.cart_may_brake": textbook.cart_may_brake,
+}
+
+
+def names() -> list[str]:
+    return list(_BUILDERS)
+
+
+def get(name: str) -> Theorem:
+    try:
+        builder = _BUILDERS[name]
+    except KeyError:
+        close = difflib.get_close_matches(name, list(_BUILDERS), n=3, cutoff=0.6)
+        hint = f"; did you mean {', '.join(close[:3])}?" if close else "; `certiloop list` shows them"
+        raise ModelError(f"unknown model {name!r}{hint}") from None
+    theorem = builder()
+    if theorem.name != name:
+        raise ModelError(f"library entry {name} builds a theorem named {theorem.name}")
+    return theorem

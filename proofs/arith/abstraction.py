@@ -1,0 +1,276 @@
+"""Subterm abstraction: rewrite atoms in terms of named abbreviations, then generalise.
+
+Given an abbreviation a == e(x) (e.g. d0 == (p - r)·n), each atom g(x) ⋈ 0 is reduced
+modulo a - e(x) (a Gröbner-basis normal form with x eliminated first). Where the reduced
+form no longer mentions the eliminated symbols, the atom is replaced by it, and `a` is a
+fresh symbol. This is sound: the abstracted formula φ'(x, a) satisfies φ'(x, e(x)) ≡ φ(x),
+so if φ' holds for every a, φ holds. It is the paper's projection onto d0, fn, fnp: three
+real numbers per boundary instead of nine coordinates.
+
+Obligations are over SSA symbols (p@3 is p after a loop), so each abbreviation is
+instantiated for every version of its symbols that occurs.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from fractions import Fraction
+
+from sympy import QQ
+from sympy.polys.orderings import lex
+from sympy.polys.rings import ring
+
+from certiloop.models.lang.terms import (
+    REAL,
+    And,
+    Implies,
+    Node,
+    Var,
+    add,
+    cmp,
+    const,
+    free_vars,
+    mul,
+    rebuild,
+    substitute,
+)
+
+MAX_INSTANCES = 16
+
+
+def _versions(formula: Node) -> dict[str, list[Node]]:
+    out: dict[str, list[Node]] = {}
+    for name, sym in free_vars(formula).items():
+        out.setdefault(name.split("@")[0], []).append(sym)
+    return out
+
+
+def abbreviation_instances(abbrevs: dict[str, Node], formula: Node) -> list[Instance]:
+    """(fresh symbol, definition over the formula's symbols) for each usable instance.
+
+    A definition's symbols are matched with every SSA version of them in the formula; a
+    symbol of an index sort that the formula lacks is a parameter (e.g. the boundary b in
+    d0(b) = (p - r(b))·n(b)) and takes every index symbol of its sort in the formula."""
+    if not abbrevs:
+        return []
+    versions = _versions(formula)
+    by_sort: dict[str, list[Node]] = {}
+    for sym in free_vars(formula).values():
+        by_sort.setdefault(str(sym.sort), []).append(sym)
+    out: list[Instance] = []
+    for name, definition in abbrevs.items():
+        syms = free_vars(definition)
+        pools, params = [], []
+        for s, node in sorted(syms.items()):
+            if s in versions:
+                pools.append(versions[s])
+            elif not node.sort.is_numeric and not node.sort.is_array and str(node.sort) in by_sort:
+                pools.append(by_sort[str(node.sort)])
+                params.append(s)
+            else:
+                pools = []
+                break
+        if not pools:
+            continue
+        names = sorted(syms)
+        combos = (c for c in itertools.product(*pools) if _consistent(dict(zip(names, c)), versions))
+        for combo in itertools.islice(combos, MAX_INSTANCES):
+            env = dict(zip(names, combo))
+            family = (name, tuple(env[n].payload for n in names if n not in params))
+            out.append(Instance(Var(f"{name}@abs{len(out)}"), substitute(definition, env),
+                                family, tuple(env[p] for p in params)))
+    return out
+
+
+def _suffix(sym: Node) -> str:
+    return sym.payload.partition("@")[2]
+
+
+def _consistent(env: dict[str, Node], versions: dict[str, list[Node]]) -> bool:
+    """Symbols of one state go together: if x takes version @N and y has a version @N,
+    y must take it too (p@7 with f@7, not p@7 with the initial f)."""
+    chosen = {_suffix(v) for v in env.values() if _suffix(v)}
+    for name, v in env.items():
+        have = {_suffix(x) for x in versions.get(name, ())}
+        for n in chosen & have:
+            if _suffix(v) != n:
+                return False
+    return True
+
+
+@dataclass(frozen=True)
+class Instance:
+    """An abbreviation instance: `symbol` stands for `definition`; instances of one family
+    differ only in their index parameters, so equal indices mean equal values."""
+
+    symbol: Node
+    definition: Node
+    family: tuple = ()
+    indices: tuple = ()
+
+    def with_definition(self, definition: Node) -> "Instance":
+        return Instance(self.symbol, definition, self.family, self.indices)
+
+
+def congruences(inst: list[Instance], index_term=lambda t: t) -> list[Node]:
+    """(b1 = b2) -> (a1 = a2) for instances of one family at index symbols b1, b2."""
+    facts = []
+    for a, b in itertools.combinations(inst, 2):
+        if a.family == b.family and a.indices and [x.key for x in a.indices] != [y.key for y in b.indices]:
+            same = And(*(cmp("==", index_term(x), index_term(y)) for x, y in zip(a.indices, b.indices)))
+            facts.append(Implies(same, cmp("==", a.symbol, b.symbol)))
+    return facts
+
+
+def lower_term(t: Node) -> Node:
+    """The same renaming of array reads and index symbols as `lowering.lower` applies."""
+    from certiloop.proofs.core.lowering import read_name
+
+    if t.op == "select":
+        return Var(read_name(t), t.sort)
+    if t.op == "var" and not t.sort.is_array and not t.sort.is_numeric and t.sort.name != "Bool":
+        return Var(t.payload, REAL)
+    if not t.args:
+        return t
+    return rebuild(t, tuple(lower_term(a) for a in t.args))
+
+
+def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) -> Node | None:
+    """The abstracted formula, or None when no atom could be rewritten. `extra_facts`
+    (true whenever the abbreviations equal their definitions) become hypotheses."""
+    if not inst or _has_binder(formula):
+        return None
+    poly = _Polys(formula, inst)
+    if poly.ring is None:
+        return None
+    relations = [poly.element(i.symbol) - poly.element(i.definition) for i in inst]
+    defined = [set(_syms(i.definition)) for i in inst]
+    by_definition = {i.definition.key: i.symbol for i in inst}
+    all_defined = set().union(*defined)
+    changed = [False]
+
+    def replace(n: Node) -> Node:
+        hit = by_definition.get(n.key)
+        if hit is not None:
+            return hit
+        return rebuild(n, tuple(replace(a) for a in n.args)) if n.args else n
+
+    def rewrite(n: Node) -> Node:
+        if n.op == "cmp" and n.args[0].sort.is_numeric:
+            # the definitions usually occur verbatim (substituted from the same template)
+            direct = replace(n)
+            if not direct.same(n) and not (set(_syms(direct)) & all_defined):
+                changed[0] = True
+                return direct
+            n = direct
+            try:
+                g = poly.element(n.args[0]) - poly.element(n.args[1])
+            except _NotPolynomial:
+                return n
+            atom_syms = set(_syms(n))
+            # only instances built from this atom's own symbols (right SSA versions, right
+            # boundary): two instances with one leading monomial would derail the division
+            mine = [k for k, syms in enumerate(defined) if syms and syms <= atom_syms]
+            if not mine:
+                return n
+            rem = g.rem([relations[k] for k in mine])
+            if poly.mentions(rem, set().union(*(defined[k] for k in mine))):
+                return n
+            changed[0] = True
+            return cmp(n.payload, poly.node(rem), 0)
+        if n.op in ("and", "or", "not", "implies", "iff"):
+            return rebuild(n, tuple(rewrite(a) for a in n.args))
+        return n
+
+    out = rewrite(formula)
+    if not changed[0]:
+        return None
+    return Implies(And(*extra_facts), out) if extra_facts else out
+
+
+class _NotPolynomial(Exception):
+    pass
+
+
+def _syms(n: Node) -> dict[str, Node]:
+    """Atomic arithmetic subterms (symbols and array reads) by their text."""
+    out: dict[str, Node] = {}
+
+    def walk(x: Node) -> None:
+        if x.op in ("var", "select"):
+            if x.sort.is_numeric:
+                out.setdefault(str(x), x)
+            return
+        for a in x.args:
+            walk(a)
+
+    walk(n)
+    return out
+
+
+class _Polys:
+    """One polynomial ring over QQ per obligation, lex order with the symbols the
+    abbreviations eliminate first, so division rewrites atoms towards the abbreviations."""
+
+    def __init__(self, formula: Node, inst: list[Instance]) -> None:
+        abbrevs = {str(i.symbol): i.symbol for i in inst}
+        defined: dict[str, Node] = {}
+        for i in inst:
+            defined.update(_syms(i.definition))
+        others = {k: v for k, v in _syms(formula).items() if k not in defined and k not in abbrevs}
+        order = sorted(defined) + sorted(others) + sorted(abbrevs)
+        self.index = {name: k for k, name in enumerate(order)}
+        self.atoms = {**defined, **others, **abbrevs}
+        self.order = order
+        if not order:
+            self.ring = None
+            return
+        self.ring, *self.gens = ring(",".join(f"v{k}" for k in range(len(order))), QQ, lex)
+
+    def element(self, n: Node):
+        op = n.op
+        if op == "const":
+            return self.ring(QQ(n.payload.numerator, n.payload.denominator))
+        if op in ("var", "select"):
+            k = self.index.get(str(n))
+            if k is None or not n.sort.is_numeric:
+                raise _NotPolynomial(str(n))
+            return self.gens[k]
+        if op == "+":
+            out = self.ring(0)
+            for a in n.args:
+                out += self.element(a)
+            return out
+        if op == "*":
+            out = self.ring(1)
+            for a in n.args:
+                out *= self.element(a)
+            return out
+        if op == "neg":
+            return -self.element(n.args[0])
+        if op == "^":
+            return self.element(n.args[0]) ** n.payload
+        if op == "/" and n.args[1].op == "const":
+            return self.element(n.args[0]) * QQ(n.args[1].payload.denominator, n.args[1].payload.numerator)
+        raise _NotPolynomial(str(n))
+
+    def mentions(self, p, names: set[str]) -> bool:
+        ks = [self.index[n] for n in names]
+        return any(monom[k] for monom in p.monoms() for k in ks)
+
+    def node(self, p) -> Node:
+        terms = []
+        for monom, coeff in p.terms():
+            c = Fraction(int(coeff.numerator), int(coeff.denominator))
+            factors = [] if c == 1 else [const(c)]
+            for k, power in enumerate(monom):
+                if power:
+                    atom = self.atoms[self.order[k]]
+                    factors.append(atom if power == 1 else atom**power)
+            terms.append(mul(*factors) if len(factors) > 1 else factors[0] if factors else const(1))
+        return add(*terms) if terms else const(0)
+
+
+def _has_binder(n: Node) -> bool:
+    return n.op in ("forall", "exists") or any(_has_binder(a) for a in n.args)

@@ -1,0 +1,5 @@
+"""The product surface: the `certiloop` command, model loading, reports and the gate."""
+
+from certiloop.proofs.cli.main import main
+
+__all__ = ["main"]

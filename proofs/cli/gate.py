@@ -1,0 +1,137 @@
+"""The verification gate: every model must meet the verdict its author expects.
+
+Per model: prove it; replay a prover counterexample in the interpreter; run the falsifier;
+and, for models with a shipped kernel, check the kernel is exactly a fresh extraction.
+A proved model passes only if every obligation is proved, the falsifier finds nothing, its
+kernel has not drifted and, where the model asks for it, its control step provably never
+blocks (vacuity). A refuted model passes only if the prover's counterexample
+replays in the interpreter and the falsifier finds a violating run too. `unknown` (a
+timeout, a solver give-up) never passes.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.engine.prover import Prover
+
+
+@dataclass
+class GateEntry:
+    model: str
+    expected: str
+    verdict: str
+    seconds: float
+    obligations: list[dict[str, Any]]
+    reason: str = ""
+    counterexample: dict[str, Any] | None = None
+    replay: dict[str, Any] | None = None
+    falsify: dict[str, Any] = field(default_factory=dict)
+    kernel: str | None = None  # None: no shipped kernel; "": matches; else the drift
+    nonblocking: dict[str, Any] | None = None  # the vacuity check, for models that ask for it
+    cached: bool = False
+
+    @property
+    def problems(self) -> list[str]:
+        out = []
+        if self.verdict == "unknown":
+            out.append(f"expected {self.expected}, but the proof is unknown: {self.reason}")
+        elif self.verdict != self.expected:
+            if self.expected == "refuted":
+                out.append("expected refuted, but it PROVED: the unsafe design now looks safe")
+            else:
+                failed = [o for o in self.obligations if o["verdict"] != "proved"]
+                where = f" at {failed[0]['path']}" if failed else ""
+                out.append(f"expected proved, but it is {self.verdict}{where}: {self.reason}")
+        if self.replay is not None and not self.replay["violated"]:
+            out.append(f"the prover's counterexample does not replay: {self.replay['message']}")
+        found = self.falsify.get("verdict") == "refuted"
+        if self.expected == "proved" and found:
+            out.append("the falsifier found a violating run of a proved model: "
+                       f"{self.falsify.get('violated')}")
+        if self.expected == "refuted" and self.falsify and not found:
+            out.append(f"the falsifier found no violating run in {self.falsify.get('examples')} examples")
+        if self.nonblocking is not None and self.nonblocking["verdict"] != "proved":
+            out.append("the vacuity check is not proved: the control step may block")
+        if self.kernel:
+            out.append(self.kernel)
+        return out
+
+    @property
+    def passed(self) -> bool:
+        return not self.problems
+
+    @property
+    def message(self) -> str:
+        return "; ".join(self.problems) or "as expected"
+
+    def to_json(self) -> dict[str, Any]:
+        return {"model": self.model, "expected": self.expected, "verdict": self.verdict,
+                "seconds": round(self.seconds, 4), "reason": self.reason,
+                "counterexample": self.counterexample, "replay": self.replay, "falsify": self.falsify,
+                "kernel": self.kernel, "nonblocking": self.nonblocking, "obligations": self.obligations,
+                "cached": self.cached,
+                "passed": self.passed, "message": self.message}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> "GateEntry":
+        keep = {k: data.get(k) for k in ("model", "expected", "verdict", "seconds", "obligations", "reason",
+                                         "counterexample", "replay", "falsify", "kernel", "nonblocking")}
+        return cls(**keep, cached=True)
+
+
+@dataclass
+class GateOptions:
+    falsify_examples: int = 300
+    seed: int = 0
+
+    def text(self) -> str:
+        return f"falsify={self.falsify_examples}/seed={self.seed}"
+
+
+def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntry:
+    from certiloop.falsify.replay import replay_refutation
+    from certiloop.falsify.search import Options, falsify
+
+    start = time.perf_counter()
+    result = prover.prove(theorem)
+    replay = None
+    if result.refutation is not None:
+        replay = replay_refutation(theorem, result.refutation).to_json()
+    found = falsify(theorem, Options(max_examples=opts.falsify_examples, seed=opts.seed, database=None,
+                                     shrink=False))
+    summary = {"verdict": found.verdict, "examples": found.examples, "seconds": round(found.seconds, 3),
+               "violated": found.run.violated if found.run else None, "check": found.check}
+    kernel = _kernel_check(theorem)
+    data = result.to_json()
+    return GateEntry(theorem.name, theorem.expected, result.verdict, time.perf_counter() - start,
+                     data["obligations"], result.reason, data["counterexample"], replay, summary, kernel,
+                     data.get("nonblocking"))
+
+
+def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=None,
+             on_model=None) -> list[GateEntry]:
+    entries = []
+    for theorem in theorems:
+        key = cache.key("gate", f"{theorem.text}\n{opts.text()}") if cache else None
+        hit = cache.get(key) if cache else None
+        if hit is not None:
+            entry = GateEntry.from_json(hit)
+            entry.kernel = _kernel_check(theorem)  # the shipped file may have changed: never cached
+        else:
+            entry = check_model(theorem, prover, opts)
+            if cache and entry.verdict != "unknown":  # a timeout may go away: never cached
+                cache.put(key, entry.to_json())
+        entries.append(entry)
+        if on_model:
+            on_model(entry)
+    return entries
+
+
+def _kernel_check(theorem: Theorem) -> str | None:
+    from certiloop.kernel.extract import SHIPPED, shipped_drift
+
+    return shipped_drift(theorem.name) if theorem.name in SHIPPED else None

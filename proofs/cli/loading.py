@@ -1,0 +1,77 @@
+"""Resolve a MODEL argument: a library name (`sbs.ctrl1`) or `path/to/file.py:theorem`."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+from certiloop.models import library
+from certiloop.models.lang.terms import ModelError
+from certiloop.models.lang.theorem import Theorem
+
+
+def load(spec: str) -> Theorem:
+    if ":" in spec and (spec.split(":", 1)[0].endswith(".py") or "/" in spec):
+        return _from_file(*spec.rsplit(":", 1))
+    if spec.endswith(".py"):
+        raise ModelError(f"{spec}: name the theorem too, as {spec}:THEOREM")
+    return library.get(spec)
+
+
+def _from_file(path_text: str, attr: str) -> Theorem:
+    path = Path(path_text)
+    if not path.is_file():
+        raise ModelError(f"{path_text}: no such file")
+    if not attr.isidentifier():
+        raise ModelError(f"{path_text}: {attr!r} is not a Python name")
+    module_name = f"certiloop_user_{abs(hash(path.resolve()))}"
+    spec = importlib.util.spec_from_file_location(module_name, path)
+    if spec is None or spec.loader is None:
+        raise ModelError(f"{path_text}: cannot be loaded as a Python module")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[module_name] = module
+    try:
+        spec.loader.exec_module(module)
+    except ModelError as exc:
+        raise ModelError(f"{path_text}: {exc}") from None
+    except SyntaxError as exc:
+        raise ModelError(f"{path_text}:{exc.lineno}: syntax error: {exc.msg}") from None
+    except Exception as exc:  # the user's module failed while importing
+        raise ModelError(f"{path_text}: failed to import: {type(exc).__name__}: {exc}") from None
+    if not hasattr(module, attr):
+        found = [k for k, v in vars(module).items() if isinstance(v, Theorem) or
+                 (callable(v) and getattr(v, "__module__", None) == module_name and not k.startswith("_"))]
+        hint = f" (it defines: {', '.join(found[:5])})" if found else ""
+        raise ModelError(f"{path_text}: defines no theorem named {attr!r}{hint}")
+    obj = getattr(module, attr)
+    if callable(obj) and not isinstance(obj, Theorem):
+        try:
+            obj = obj()
+        except ModelError as exc:
+            raise ModelError(f"{path_text}:{attr}: {exc}") from None
+        except Exception as exc:
+            raise ModelError(f"{path_text}:{attr}: building the theorem failed: "
+                             f"{type(exc).__name__}: {exc}") from None
+    if not isinstance(obj, Theorem):
+        raise ModelError(f"{path_text}:{attr} is a {type(obj).__name__}, not a certiloop Theorem")
+    return obj
+
+
+def project_models(folder: Path | None = None) -> list[str]:
+    """The gate's default: `[tool.certiloop] models = [...]` in ./pyproject.toml if there is
+    one, else the whole library."""
+    import tomllib
+
+    path = (folder or Path.cwd()) / "pyproject.toml"
+    if path.is_file():
+        try:
+            config = tomllib.loads(path.read_text()).get("tool", {}).get("certiloop", {})
+        except tomllib.TOMLDecodeError as exc:
+            raise ModelError(f"{path}: not valid TOML: {exc}") from None
+        models = config.get("models")
+        if models is not None:
+            if not isinstance(models, list) or not all(isinstance(m, str) for m in models):
+                raise ModelError(f"{path}: [tool.certiloop] models must be a list of MODEL strings")
+            return models
+    return library.names()

@@ -1,0 +1,363 @@
+"""The `certiloop` command line. Exit codes: 0 claims hold, 1 a claim failed, 2 bad input."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from pathlib import Path
+
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+
+
+class BadInput(Exception):
+    """A user error: reported on one line, exit 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str) -> None:  # argparse prints usage + exits 2; keep it one line
+        raise BadInput(message)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="certiloop",
+        description="Prove hybrid-program models of robot controllers safe, or show why they are not.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    sub.add_parser("list", help="models in the library and their expected verdicts",
+                   description="List the library's models with their expected verdicts.")
+
+    prove = sub.add_parser(
+        "prove", help="generate and discharge proof obligations",
+        description="Prove MODEL(s): split each into proof obligations, discharge them with z3, "
+        "and, if any is not proved, search for a run that violates the guarantee. "
+        "Exit 0 if every obligation of every model is proved, 1 otherwise.")
+    prove.add_argument("models", nargs="+", metavar="MODEL",
+                       help="library name (sbs.ctrl1) or path/to/file.py:theorem")
+    prove.add_argument("--json", metavar="F", help="write results as JSON to F ('-' for stdout)")
+    prove.add_argument("--smtlib", metavar="DIR", help="write every obligation as an SMT-LIB 2 file")
+    prove.add_argument("--timeout", metavar="S", type=float, default=30.0,
+                       help="seconds per obligation before it is 'unknown' (default 30)")
+    prove.add_argument("--jobs", metavar="N", type=int, default=None,
+                       help="worker processes (default: number of cores)")
+    prove.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
+                       "(tcp://host:8786; needs certiloop[distributed])")
+    prove.add_argument("-v", "--verbose", action="store_true", help="list every obligation")
+
+    falsify = sub.add_parser(
+        "falsify", help="search for a run that violates the guarantee (hypothesis)",
+        description="Run MODEL(s) in the interpreter on initial states, choices and durations that "
+        "hypothesis draws and steers towards small safety margins, until a run violates the "
+        "guarantee; the run is shrunk, re-checked, printed and optionally plotted. Exit 0 if no "
+        "counterexample was found, 1 if one was.")
+    falsify.add_argument("models", nargs="+", metavar="MODEL",
+                         help="library name (sbs.eqn12) or path/to/file.py:theorem")
+    falsify.add_argument("--max-examples", metavar="N", type=int, default=2000,
+                         help="runs to try per model (default 2000)")
+    falsify.add_argument("--seed", metavar="S", type=int, default=0, help="random seed (default 0)")
+    falsify.add_argument("--json", metavar="F", help="write the result with the full trace as JSON to F "
+                         "('-' for stdout)")
+    falsify.add_argument("--plot", metavar="F.png", help="plot the run: margins over time and the tool path")
+    falsify.add_argument("--max-family", metavar="N", type=int, default=8,
+                         help="largest family of boundaries to try (default 8)")
+    falsify.add_argument("--steps", metavar="N", type=int, default=3,
+                         help="most control-loop iterations per run (default 3)")
+    falsify.add_argument("--database", metavar="DIR", default=".certiloop/hypothesis",
+                         help="hypothesis example database, so failures are found again first "
+                         "(default .certiloop/hypothesis; 'none' to disable)")
+
+    extract = sub.add_parser(
+        "extract", help="generate runtime code from a verified model's controller",
+        description="Generate a numpy module computing the controller of MODEL (vectorised over "
+        "its family of boundaries) from the model's syntax tree. The module carries the model's "
+        "content hash; the kernel refuses to run with a model that changed since.")
+    extract.add_argument("model", metavar="MODEL", help="library name (sbs.ctrl2) or path/to/file.py:theorem")
+    extract.add_argument("-o", "--output", metavar="FILE", help="write the module to FILE (default: stdout)")
+
+    gate = sub.add_parser(
+        "gate", help="check every model against its expected verdict (for CI)",
+        description="Prove each MODEL (default: the whole library) and compare with the verdict "
+        "its author expects. Exit 0 only if every model met its expectation; a proof that "
+        "became 'unknown' fails the gate.")
+    gate.add_argument("models", nargs="*", metavar="MODEL",
+                      help="library names or path/to/file.py:theorem (default: the library)")
+    gate.add_argument("--json", metavar="F", help="write the gate report as JSON to F")
+    gate.add_argument("--junit", metavar="F",
+                      help="write JUnit XML to F (a test case per model and obligation)")
+    gate.add_argument("--markdown", metavar="F",
+                      help="append a Markdown summary to F (e.g. $GITHUB_STEP_SUMMARY)")
+    gate.add_argument("--timeout", metavar="S", type=float, default=60.0,
+                      help="seconds per obligation (default 60)")
+    gate.add_argument("--jobs", metavar="N", type=int, default=None,
+                      help="worker processes (default: number of cores)")
+    gate.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
+                      "(tcp://host:8786; needs certiloop[distributed])")
+    gate.add_argument("--falsify-examples", metavar="N", type=int, default=300,
+                      help="falsifier runs per model (default 300)")
+    gate.add_argument("--cache", metavar="DIR", help="proof cache folder (default .certiloop/cache, "
+                      "or $CERTILOOP_CACHE)")
+    gate.add_argument("--no-cache", action="store_true", help="prove everything afresh")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except BadInput as exc:
+        print(f"certiloop: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        print("certiloop: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return EXIT_FAILED
+    except ImportError as exc:
+        print(f"certiloop: error: {exc}", file=sys.stderr)
+        return EXIT_BAD_INPUT
+    except Exception as exc:  # never a traceback for users; CERTILOOP_DEBUG=1 shows it
+        if os.environ.get("CERTILOOP_DEBUG"):
+            raise
+        from certiloop.models.lang.terms import ModelError
+
+        if isinstance(exc, ModelError):
+            print(f"certiloop: error: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        print(f"certiloop: internal error: {type(exc).__name__}: {exc} "
+              "(set CERTILOOP_DEBUG=1 for the traceback)", file=sys.stderr)
+        return EXIT_BAD_INPUT
+
+
+def _main(argv: list[str] | None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.command is None:
+        build_parser().print_help()
+        return EXIT_BAD_INPUT
+    if args.command == "list":
+        return cmd_list()
+    if args.command == "prove":
+        return cmd_prove(args)
+    if args.command == "gate":
+        return cmd_gate(args)
+    if args.command == "falsify":
+        return cmd_falsify(args)
+    if args.command == "extract":
+        return cmd_extract(args)
+    raise BadInput(f"unknown command {args.command}")  # pragma: no cover
+
+
+def console(stderr: bool = False):
+    """A rich console; when piped, wide enough that tables do not fold model names."""
+    from rich.console import Console
+
+    probe = Console(stderr=stderr)
+    return probe if probe.is_terminal else Console(stderr=stderr, width=140)
+
+
+def cmd_list() -> int:
+    from rich.table import Table
+
+    from certiloop.models import library
+
+    table = Table()
+    table.add_column("model", no_wrap=True)
+    table.add_column("expected", no_wrap=True)
+    table.add_column("what it is")
+    for name in library.names():
+        t = library.get(name)
+        table.add_row(name, t.expected, t.description)
+    console().print(table)
+    return EXIT_OK
+
+
+def _check_common(args: argparse.Namespace) -> None:
+    if args.timeout <= 0:
+        raise BadInput(f"--timeout must be positive, got {args.timeout:g}")
+    if args.jobs is not None and args.jobs < 1:
+        raise BadInput(f"--jobs must be at least 1, got {args.jobs}")
+
+
+def cmd_gate(args: argparse.Namespace) -> int:
+    _check_common(args)
+    if args.falsify_examples < 1:
+        raise BadInput(f"--falsify-examples must be at least 1, got {args.falsify_examples}")
+    from rich.console import Console
+    from rich.table import Table
+
+    from certiloop.proofs.cli.gate import GateOptions, run_gate
+    from certiloop.proofs.cli.gate_report import junit, markdown
+    from certiloop.proofs.cli.loading import load, project_models
+    from certiloop.proofs.cli.report import verdict_text
+    from certiloop.proofs.engine.cache import Cache
+    from certiloop.proofs.engine.prover import Prover
+
+    theorems = [load(spec) for spec in (args.models or project_models())]
+    cache = None if args.no_cache else Cache(Path(args.cache) if args.cache else None)
+    opts = GateOptions(falsify_examples=args.falsify_examples)
+    out, err = console(), Console(stderr=True)
+    start = time.perf_counter()
+    with Prover(jobs=args.jobs, timeout_s=args.timeout, executor=args.executor) as prover:
+        if err.is_terminal:
+            with err.status("gate") as status:
+                entries = run_gate(theorems, prover, opts, cache,
+                                   on_model=lambda e: status.update(f"gate: {e.model} done"))
+        else:
+            entries = run_gate(theorems, prover, opts, cache)
+    table = Table(title="certiloop gate")
+    columns = ("model", "expected", "verdict", "obligations", "step runs", "falsifier", "replay", "kernel",
+               "s", "gate")
+    for col in columns:
+        table.add_column(col, no_wrap=col != "model", overflow="fold")
+    for e in entries:
+        proved = sum(o["verdict"] == "proved" for o in e.obligations)
+        replay = "-" if e.replay is None else ("violates" if e.replay["violated"] else "FAILS")
+        kernel = "-" if e.kernel is None else ("matches" if not e.kernel else "DRIFTED")
+        runs = "-" if e.nonblocking is None else verdict_text(e.nonblocking["verdict"])
+        table.add_row(e.model, e.expected, verdict_text(e.verdict), f"{proved}/{len(e.obligations)}", runs,
+                      e.falsify.get("verdict", "-"), replay, kernel,
+                      f"{e.seconds:.2f}" + (" (cached)" if e.cached else ""),
+                      "[green]PASS[/]" if e.passed else "[bold red]FAIL[/]")
+    out.print(table)
+    failed = [e for e in entries if not e.passed]
+    for e in failed:
+        out.print(f"FAIL {e.model}: {e.message}", highlight=False, markup=False)
+    cached = f", {cache.hits} from the cache" if cache and cache.hits else ""
+    out.print(f"{len(entries) - len(failed)} passed, {len(failed)} failed{cached} "
+              f"({time.perf_counter() - start:.1f} s)", highlight=False)
+    if args.json:
+        Path(args.json).write_text(json.dumps([e.to_json() for e in entries], indent=2) + "\n")
+    if args.junit:
+        Path(args.junit).write_text(junit(entries))
+    if args.markdown:
+        with open(args.markdown, "a") as fh:  # CI summary files are appended to
+            fh.write(markdown(entries))
+    return EXIT_OK if not failed else EXIT_FAILED
+
+
+def cmd_prove(args: argparse.Namespace) -> int:
+    _check_common(args)
+    from certiloop.proofs.cli.loading import load
+
+    theorems = [load(spec) for spec in args.models]  # all bad names fail before any work
+
+    from rich.console import Console
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from certiloop.proofs.cli.report import show_result
+    from certiloop.proofs.engine.prover import Prover
+
+    out = console(stderr=args.json == "-")
+    err = Console(stderr=True)
+    results = []
+    with Prover(jobs=args.jobs, timeout_s=args.timeout, executor=args.executor) as prover:
+        for theorem in theorems:
+            smt_dir = Path(args.smtlib) if args.smtlib else None
+            if err.is_terminal:
+                with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                              TimeElapsedColumn(), console=err, transient=True) as bar:
+                    task = bar.add_task(f"proving {theorem.name}", total=None)
+                    result = prover.prove(theorem,
+                                          on_start=lambda n, t=task: bar.update(t, total=n),
+                                          on_result=lambda r, t=task: bar.advance(t), smtlib_dir=smt_dir)
+            else:
+                result = prover.prove(theorem, smtlib_dir=smt_dir)
+            show_result(out, result, verbose=args.verbose)
+            if result.refutation is not None:
+                result.extra["replay"] = _replay(out, theorem, result.refutation)
+            results.append(result)
+    if args.json:
+        payload = results[0].to_json() if len(results) == 1 else [r.to_json() for r in results]
+        text = json.dumps(payload, indent=2)
+        if args.json == "-":
+            print(text)
+        else:
+            Path(args.json).write_text(text + "\n")
+    all_proved = all(o.verdict == "proved" for r in results for o in r.obligations + (r.nonblocking or []))
+    return EXIT_OK if all_proved else EXIT_FAILED
+
+
+def _replay(out, theorem, refutation) -> dict:
+    """Replay a prover counterexample in the interpreter; a failure is a certiloop bug."""
+    from certiloop.falsify.replay import replay_refutation
+
+    outcome = replay_refutation(theorem, refutation)
+    if outcome.violated:
+        out.print(f"  interpreter replay: {outcome.message}", highlight=False, markup=False)
+    else:
+        out.print(f"  [bold red]BUG: the prover's counterexample does not replay[/] — {outcome.message}. "
+                  "Please report this to the certiloop developers.", highlight=False)
+    return outcome.to_json()
+
+
+def cmd_extract(args: argparse.Namespace) -> int:
+    from certiloop.kernel.extract import extract
+    from certiloop.proofs.cli.loading import load
+
+    source = extract(load(args.model))
+    if args.output:
+        Path(args.output).write_text(source)
+        console(stderr=True).print(f"wrote {args.output}", highlight=False, markup=False)
+    else:
+        sys.stdout.write(source)
+    return EXIT_OK
+
+
+def cmd_falsify(args: argparse.Namespace) -> int:
+    if args.max_examples < 1:
+        raise BadInput(f"--max-examples must be at least 1, got {args.max_examples}")
+    if args.max_family < 1:
+        raise BadInput(f"--max-family must be at least 1, got {args.max_family}")
+    if args.steps < 1:
+        raise BadInput(f"--steps must be at least 1, got {args.steps}")
+    if args.plot and not args.plot.lower().endswith(".png"):
+        raise BadInput(f"--plot writes a PNG file; give a name ending in .png, not {args.plot!r}")
+    if args.plot:
+        try:
+            import matplotlib  # noqa: F401
+        except ImportError:
+            raise BadInput("--plot needs matplotlib: pip install 'certiloop[plot]'") from None
+    from certiloop.proofs.cli.loading import load
+
+    theorems = [load(spec) for spec in args.models]
+
+    from rich.console import Console
+
+    from certiloop.falsify.report import show_falsification
+    from certiloop.falsify.search import Options, falsify
+
+    database = None if args.database.lower() == "none" else Path(args.database)
+    opts = Options(max_examples=args.max_examples, seed=args.seed, families=(1, args.max_family),
+                   max_steps=args.steps, database=database)
+    out, err = console(stderr=args.json == "-"), Console(stderr=True)
+    results = []
+    for theorem in theorems:
+        if err.is_terminal:
+            with err.status(f"falsifying {theorem.name} (up to {args.max_examples} examples)"):
+                result = falsify(theorem, opts)
+        else:
+            result = falsify(theorem, opts)
+        show_falsification(out, result)
+        if args.plot and result.run is not None:
+            from certiloop.falsify.plots import plot_run
+
+            target = Path(args.plot)
+            if len(theorems) > 1:
+                target = target.with_name(f"{target.stem}-{theorem.name}{target.suffix}")
+            plot_run(result.run, theorem.name, target)
+            out.print(f"  plot: {target}", highlight=False, markup=False)
+        results.append(result)
+    if args.json:
+        payload = results[0].to_json() if len(results) == 1 else [r.to_json() for r in results]
+        text = json.dumps(payload, indent=2)
+        if args.json == "-":
+            print(text)
+        else:
+            Path(args.json).write_text(text + "\n")
+    return EXIT_FAILED if any(r.found for r in results) else EXIT_OK
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,125 @@
+"""Lower a quantifier-free obligation with arrays and index sorts to plain real arithmetic,
+so z3's nlsat (complete for nonlinear real arithmetic) can decide it.
+
+1. Read over write: an atom P(select(store(a, i, v), j)) becomes
+   (i = j -> P(v)) ∧ (i ≠ j -> P(select(a, j))), an equivalence.
+2. Ackermann reduction: every remaining read a[t] becomes a symbol `a[t]`, and for every two
+   reads of the same array, (s = t) -> (a[s] = a[t]) is assumed, an equisatisfiable rewrite.
+3. Index-sort symbols become reals. They are only ever compared for equality, and a
+   quantifier-free formula with equality is valid over every domain iff it is valid over
+   an infinite one, such as the reals.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+from certiloop.models.lang.terms import (
+    BOOL,
+    INT,
+    REAL,
+    And,
+    Iff,
+    Implies,
+    Node,
+    Not,
+    Var,
+    cmp,
+    rebuild,
+)
+
+ATOM_OPS = ("cmp", "select", "var", "true", "false")
+
+
+def _find_read_over_write(n: Node) -> Node | None:
+    if n.op == "select" and n.args[0].op == "store":
+        return n
+    for a in n.args:
+        found = _find_read_over_write(a)
+        if found is not None:
+            return found
+    return None
+
+
+def _replace(n: Node, old: Node, new: Node) -> Node:
+    if n.same(old):
+        return new
+    if not n.args:
+        return n
+    return rebuild(n, tuple(_replace(a, old, new) for a in n.args))
+
+
+def _eq(a: Node, b: Node) -> Node:
+    return Iff(a, b) if a.sort == BOOL else cmp("==", a, b)
+
+
+def eliminate_stores(f: Node) -> Node:
+    if f.op in ("and", "or", "not", "implies", "iff"):
+        return rebuild(f, tuple(eliminate_stores(a) for a in f.args))
+    read = _find_read_over_write(f)
+    if read is None:
+        return f
+    st, *reads = read.args
+    base, *rest = st.args
+    writes, value = rest[:-1], rest[-1]
+    if all(w.same(r) for w, r in zip(writes, reads)):
+        return eliminate_stores(_replace(f, read, value))
+    same = And(*(_eq(w, r) for w, r in zip(writes, reads)))
+    other = Node("select", (base, *reads), read.sort)
+    return And(Implies(same, eliminate_stores(_replace(f, read, value))),
+               Implies(Not(same), eliminate_stores(_replace(f, read, other))))
+
+
+def _has(n: Node, op: str) -> bool:
+    return n.op == op or any(_has(a, op) for a in n.args)
+
+
+def read_name(read: Node) -> str:
+    array, *idx = read.args
+    return f"{array.payload}[{','.join(str(i) for i in idx)}]"
+
+
+def lower(formula: Node, reads_out: dict[str, tuple] | None = None) -> Node | None:
+    """Plain real/Bool/Int arithmetic equivalent in validity, or None if not applicable.
+    reads_out, if given, receives symbol name -> (array name, index terms) for each read."""
+    f = eliminate_stores(formula)
+    if _has(f, "store") or _has(f, "forall") or _has(f, "exists"):
+        return None
+    reads: dict[str, Node] = {}
+
+    def collect(n: Node) -> None:
+        if n.op == "select":
+            if n.args[0].op != "var" or any(_has(i, "select") for i in n.args[1:]):
+                raise ValueError("nested reads")
+            reads.setdefault(read_name(n), n)
+        for a in n.args:
+            collect(a)
+
+    try:
+        collect(f)
+    except ValueError:
+        return None
+    mapping = {k: Var(k, r.sort) for k, r in reads.items()}
+    if reads_out is not None:
+        reads_out.update({k: (r.args[0].payload, r.args[1:]) for k, r in reads.items()})
+
+    def to_real_index(n: Node) -> Node:
+        if n.op == "var" and not n.sort.is_array and n.sort not in (REAL, INT, BOOL):
+            return Var(n.payload, REAL)
+        if n.op == "select":
+            return mapping[read_name(n)]
+        if not n.args:
+            return n
+        return rebuild(n, tuple(to_real_index(a) for a in n.args))
+
+    facts = []
+    by_array: dict[str, list[Node]] = {}
+    for r in reads.values():
+        by_array.setdefault(r.args[0].payload, []).append(r)
+    for group in by_array.values():
+        for a, b in itertools.combinations(group, 2):
+            same_index = And(*(cmp("==", to_real_index(x), to_real_index(y))
+                               for x, y in zip(a.args[1:], b.args[1:])))
+            facts.append(Implies(same_index, _eq(mapping[read_name(a)], mapping[read_name(b)])))
+    lowered = to_real_index(f)
+    return Implies(And(*facts), lowered) if facts else lowered

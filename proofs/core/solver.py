@@ -1,0 +1,289 @@
+"""z3 back end: model terms -> z3, one fresh solver per obligation, models -> plain values."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any, Callable
+
+try:
+    import z3
+except ImportError as exc:  # pragma: no cover - exercised by the CLI's missing-solver test
+    raise ImportError("z3 is not installed: pip install z3-solver") from exc
+
+from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Sort
+from certiloop.proofs.core.interval import Interval
+
+
+class Z3Translator:
+    """Translates into its own z3 context: every check starts from a clean slate, so the
+    same obligation gets the same search (z3's global context carries state between checks,
+    which made results depend on what was checked before)."""
+
+    def __init__(self) -> None:
+        self.ctx = z3.Context()
+        self.sorts: dict[str, z3.SortRef] = {}
+        self.symbols: dict[str, z3.ExprRef] = {}
+
+    def sort(self, s: Sort) -> z3.SortRef:
+        if s == REAL:
+            return z3.RealSort(self.ctx)
+        if s == INT:
+            return z3.IntSort(self.ctx)
+        if s == BOOL:
+            return z3.BoolSort(self.ctx)
+        if s.is_array:
+            return z3.ArraySort(*(self.sort(d) for d in s.domain), self.sort(s.range))
+        if s.name not in self.sorts:
+            self.sorts[s.name] = z3.DeclareSort(s.name, self.ctx)
+        return self.sorts[s.name]
+
+    def symbol(self, n: Node, bound: dict[str, z3.ExprRef]) -> z3.ExprRef:
+        if n.payload in bound:
+            return bound[n.payload]
+        sym = self.symbols.get(n.payload)
+        if sym is None:
+            sym = z3.Const(n.payload, self.sort(n.sort))
+            self.symbols[n.payload] = sym
+        return sym
+
+    def __call__(self, n: Node, bound: dict[str, z3.ExprRef] | None = None) -> z3.ExprRef:
+        return self.tr(n, bound or {})
+
+    def tr(self, n: Node, bound: dict[str, z3.ExprRef]) -> z3.ExprRef:
+        op, args = n.op, n.args
+        if op == "const":
+            f: Fraction = n.payload
+            if n.sort == INT:
+                return z3.IntVal(f.numerator, self.ctx)
+            return z3.RealVal(f"{f.numerator}/{f.denominator}", self.ctx)
+        if op == "var":
+            return self.symbol(n, bound)
+        if op == "true":
+            return z3.BoolVal(True, self.ctx)
+        if op == "false":
+            return z3.BoolVal(False, self.ctx)
+        sub = [self.tr(a, bound) for a in args] if op not in ("forall", "exists") else []
+        if op == "+":
+            return z3.Sum(*sub) if len(sub) > 1 else sub[0]
+        if op == "*":
+            return z3.Product(*sub) if len(sub) > 1 else sub[0]
+        if op == "neg":
+            return -sub[0]
+        if op == "/":
+            a, b = sub
+            return z3.ToReal(a) / z3.ToReal(b) if z3.is_int(a) and z3.is_int(b) else a / b
+        if op == "^":
+            return z3.Product(*([sub[0]] * n.payload)) if n.payload > 1 else (
+                sub[0] if n.payload == 1 else z3.IntVal(1, self.ctx))
+        if op == "select":
+            return z3.Select(sub[0], *sub[1:])
+        if op == "store":
+            return z3.Store(sub[0], *sub[1:])
+        if op == "cmp":
+            a, b = sub
+            return {
+                "<": lambda: a < b, "<=": lambda: a <= b, ">": lambda: a > b,
+                ">=": lambda: a >= b, "==": lambda: a == b, "!=": lambda: a != b,
+            }[n.payload]()
+        if op == "and":
+            return z3.And(*sub)
+        if op == "or":
+            return z3.Or(*sub)
+        if op == "not":
+            return z3.Not(sub[0])
+        if op == "implies":
+            return z3.Implies(*sub)
+        if op == "iff":
+            return sub[0] == sub[1]
+        if op in ("forall", "exists"):
+            inner = dict(bound)
+            zvars = []
+            for v in n.payload:
+                zv = z3.Const(v.payload, self.sort(v.sort))
+                inner[v.payload] = zv
+                zvars.append(zv)
+            body = self.tr(args[0], inner)
+            return z3.ForAll(zvars, body) if op == "forall" else z3.Exists(zvars, body)
+        raise TypeError(f"cannot send `{n}` to z3 (modalities must be expanded first)")
+
+
+def _quantifier_free(n: Node) -> bool:
+    return n.op not in ("forall", "exists") and all(_quantifier_free(a) for a in n.args)
+
+
+def _pure_real(tr: Z3Translator, n: Node) -> bool:
+    return not tr.sorts and all(s.sort == REAL or s.sort == BOOL for s in _symbols(n))
+
+
+def _symbols(n: Node) -> list[Node]:
+    out: list[Node] = []
+
+    def walk(x: Node) -> None:
+        if x.op == "var":
+            out.append(x)
+        for a in x.args:
+            walk(a)
+        if x.op in ("forall", "exists"):
+            out.extend(x.payload)
+
+    walk(n)
+    return out
+
+
+@dataclass
+class SolverAnswer:
+    status: str  # "unsat" | "sat" | "unknown"
+    reason: str = ""
+    model: dict[str, Any] | None = None
+    smtlib: str = ""
+    model_falsifies: bool | None = None  # z3's own evaluation of the formula in its model
+
+
+def check_valid(formula: Node, timeout_s: float, want_smtlib: bool = False) -> SolverAnswer:
+    """Ask z3 whether `formula` is valid by checking its negation in a fresh solver."""
+    tr = Z3Translator()
+    goal = z3.Not(tr(formula))
+    if _quantifier_free(formula) and _pure_real(tr, formula):
+        solver = z3.SolverFor("QF_NRA", ctx=tr.ctx)
+    else:
+        solver = z3.Solver(ctx=tr.ctx)
+    solver.set("timeout", max(1, int(timeout_s * 1000)))
+    solver.add(goal)
+    smt = solver.to_smt2() if want_smtlib else ""
+    try:
+        result = solver.check()
+    except z3.Z3Exception as exc:  # z3 crashed on this input
+        return SolverAnswer("unknown", f"z3 error: {exc}", smtlib=smt)
+    if result == z3.unsat:
+        return SolverAnswer("unsat", smtlib=smt)
+    if result == z3.sat:
+        model = solver.model()
+        evaluated = model.eval(tr(formula), model_completion=True)
+        falsifies = True if z3.is_false(evaluated) else False if z3.is_true(evaluated) else None
+        return SolverAnswer("sat", model=read_model(model, tr), smtlib=smt, model_falsifies=falsifies)
+    reason = solver.reason_unknown()
+    if reason in ("timeout", "canceled"):
+        reason = f"timeout after {timeout_s:g} s"
+    return SolverAnswer("unknown", f"z3 gave up: {reason}", smtlib=smt)
+
+
+def smtlib_text(formula: Node, name: str = "") -> str:
+    """A standalone SMT-LIB 2 script whose `unsat` answer proves `formula` valid."""
+    tr = Z3Translator()
+    s = z3.Solver(ctx=tr.ctx)
+    s.add(z3.Not(tr(formula)))
+    head = f"; certiloop obligation {name}\n; unsat means the obligation is valid (proved)\n"
+    return head + s.to_smt2()
+
+
+# --------------------------------------------------------------------------- models
+
+
+def _value(v: z3.ExprRef, model: z3.ModelRef) -> Any:
+    if z3.is_true(v):
+        return True
+    if z3.is_false(v):
+        return False
+    if z3.is_int_value(v):
+        return v.as_long()
+    if z3.is_rational_value(v):
+        return Fraction(v.numerator_as_long(), v.denominator_as_long())
+    if z3.is_algebraic_value(v):
+        return algebraic_interval(v)
+    if z3.is_array(v) or z3.is_K(v) or z3.is_store(v):
+        return _array_value(v, model)
+    if v.sort().kind() == z3.Z3_UNINTERPRETED_SORT:
+        return str(v)
+    return str(v)
+
+
+def algebraic_interval(v: z3.AlgebraicNumRef, digits: int = 30) -> Interval:
+    """A rational interval of width 2·10^-digits that contains the algebraic number."""
+    mid = v.approx(digits)
+    m = Fraction(mid.numerator_as_long(), mid.denominator_as_long())
+    eps = Fraction(1, 10**digits)
+    coeffs = tuple(c.as_long() for c in v.poly())
+    return Interval(m - eps, m + eps, decimal=v.as_decimal(12).rstrip("?"),
+                    poly=coeffs, root_index=v.index())
+
+
+@dataclass
+class ArrayValue:
+    """A finite map with a default, as z3 models arrays and families.
+
+    `lookup` (only inside the process that holds the z3 model) answers reads that the
+    finite part does not cover, for arrays z3 describes by a lambda term.
+    """
+
+    entries: dict[tuple, Any]
+    default: Any
+    lookup: Callable[[tuple], Any] | None = field(default=None, compare=False, repr=False)
+
+    def get(self, idx: tuple) -> Any:
+        if idx in self.entries:
+            return self.entries[idx]
+        return self.lookup(idx) if self.lookup is not None else self.default
+
+    def __str__(self) -> str:
+        parts = [f"{','.join(map(_short, k))}: {_short(v)}" for k, v in self.entries.items()]
+        if self.default is not None:
+            parts.append(f"else: {_short(self.default)}")
+        return "[" + "; ".join(parts) + "]"
+
+
+def _short(x: Any) -> str:
+    from certiloop.proofs.core.interval import show_value
+
+    return show_value(x)
+
+
+def _array_value(v: z3.ExprRef, model: z3.ModelRef) -> ArrayValue | str:
+    entries: dict[tuple, Any] = {}
+    while z3.is_store(v):
+        arr, *rest = v.children()
+        idx, val = rest[:-1], rest[-1]
+        key = tuple(_value(i, model) for i in idx)
+        entries.setdefault(key, _value(val, model))
+        v = arr
+    if z3.is_K(v):
+        return ArrayValue(entries, _value(v.arg(0), model))
+    if z3.is_as_array(v):
+        interp = model[z3.get_as_array_func(v)]
+        for entry in interp.as_list()[:-1]:
+            *idx, val = entry
+            entries.setdefault(tuple(_value(i, model) for i in idx), _value(val, model))
+        return ArrayValue(entries, _value(interp.else_value(), model))
+    base = v
+
+    def lookup(idx: tuple) -> Any:
+        args = [_z3_index(x, base.sort().domain_n(k) if base.sort().arity() > 1 else base.sort().domain())
+                for k, x in enumerate(idx)]
+        return _value(model.eval(z3.Select(base, *args), model_completion=True), model)
+
+    return ArrayValue(entries, None, lookup)
+
+
+def _z3_index(x: Any, sort: z3.SortRef) -> z3.ExprRef:
+    ctx = sort.ctx
+    if isinstance(x, bool):
+        return z3.BoolVal(x, ctx)
+    if isinstance(x, int):
+        return z3.IntVal(x, ctx)
+    if isinstance(x, Fraction):
+        return z3.RealVal(f"{x.numerator}/{x.denominator}", ctx)
+    raise ValueError(f"cannot index a z3 array by {x!r}")
+
+
+def read_model(model: z3.ModelRef, tr: Z3Translator) -> dict[str, Any]:
+    """Values by symbol name; `#universe:S` lists the elements of each index sort S (a z3
+    model interprets an uninterpreted sort as a finite set, so ∀ over it can be checked)."""
+    out: dict[str, Any] = {}
+    for name, sort in tr.sorts.items():
+        universe = model.get_universe(sort)
+        if universe is not None:
+            out[f"#universe:{name}"] = [str(e) for e in universe]
+    for name, sym in tr.symbols.items():
+        val = model.eval(sym, model_completion=True)
+        out[name] = _value(val, model)
+    return out

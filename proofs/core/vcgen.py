@@ -1,0 +1,221 @@
+"""Proof obligations by symbolic execution (the soundness-critical core).
+
+A symbolic state is a path condition (facts) plus an environment mapping each program
+variable to a term over *SSA symbols*. Havoc (x := *, a loop's or an ODE's writes) binds a
+variable to a fresh symbol; because old symbols keep their meaning, facts learned earlier
+stay true, which is exactly the dL loop/ODE rule's "keep the context of what is not
+written". Every leaf emits one obligation `facts -> goal`, closed by reading its free
+symbols as universally quantified.
+
+Rules, in dL terms:
+  x := e        [x:=e]P   <-> P(e)
+  x := *        [x:=*]P   <-> ∀x P              (fresh symbol)
+  ?Q            [?Q]P     <-> (Q -> P)          (Q joins the facts)
+  a ; b         [a;b]P    <-> [a][b]P
+  a ∪ b         [a∪b]P    <-> [a]P ∧ [b]P       (two paths, labelled)
+  a* / inv J    init: Γ -> J;  step: J -> [a]J (written vars fresh);  use: J -> P
+  ODE           solve (polynomial solution, domain along the whole flow), or a dC chain
+                of dI invariants, or dW (written vars fresh, domain assumed)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
+from certiloop.models.lang.terms import (
+    REAL,
+    And,
+    Implies,
+    ModelError,
+    Node,
+    Var,
+    store,
+    substitute,
+)
+from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.core.odes import dI_condition, holds_along, polynomial_solution
+from certiloop.proofs.core.wp import expand_modalities, has_modality
+
+
+@dataclass(frozen=True)
+class Obligation:
+    """A closed first-order formula (free symbols universally quantified) to be proved valid."""
+
+    id: str
+    path: str
+    formula: Node
+    model: str = ""
+    abbreviations: dict[str, Node] = field(default_factory=dict, compare=False)
+
+    @property
+    def text(self) -> str:
+        return str(self.formula)
+
+
+class Names:
+    """Deterministic fresh-symbol supply: x@1, x@2, ... (users cannot write '@')."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.origin: dict[str, str] = {}  # fresh name -> what it stands for
+
+    def fresh(self, base: Node | str, sort=None, why: str = "", event: int | None = None) -> Node:
+        """A fresh symbol; symbols made by one event (one loop's or ODE's havoc) share its
+        number, so `px@7, py@7` are visibly the same state."""
+        if event is None:
+            self.count += 1
+            event = self.count
+        root = base if isinstance(base, str) else base.payload
+        root = root.split("@")[0]
+        name = f"{root}@{event}"
+        self.origin[name] = why or root
+        if sort is None:
+            sort = REAL if isinstance(base, str) else base.sort
+        return Var(name, sort)
+
+
+@dataclass
+class State:
+    facts: tuple[Node, ...]
+    env: dict[str, Node]
+    path: tuple[str, ...]
+
+    def value(self, n: Node) -> Node:
+        return substitute(n, self.env)
+
+    def assume(self, *fs: Node) -> "State":
+        return State(self.facts + tuple(fs), self.env, self.path)
+
+    def bind(self, updates: dict[str, Node]) -> "State":
+        env = dict(self.env)
+        env.update(updates)
+        return State(self.facts, env, self.path)
+
+    def at(self, label: str) -> "State":
+        return State(self.facts, self.env, self.path + (label,))
+
+
+Emit = Callable[[State, Node, str], None]
+
+
+@dataclass
+class VCGen:
+    theorem: Theorem
+    names: Names = field(default_factory=Names)
+    obligations: list[Obligation] = field(default_factory=list)
+
+    # ---- entry point
+    def run(self) -> list[Obligation]:
+        t = self.theorem
+        start = State((expand_modalities(t.assumptions, self.names),), {}, ())
+        self.exec(t.program, start, lambda st: self.emit(st, t.guarantee, "postcondition"))
+        return self.obligations
+
+    def emit(self, st: State, goal: Node, what: str) -> None:
+        goal = st.value(expand_modalities(goal, self.names, positive=True))
+        facts = st.facts
+        path = " / ".join(st.path + (what,))
+        oid = f"o{len(self.obligations) + 1}"
+        self.obligations.append(Obligation(oid, path, Implies(And(*facts), goal), self.theorem.name,
+                                           self.theorem.abbreviations))
+
+    def havoc(self, st: State, variables: dict[str, Node], why: str) -> State:
+        self.names.count += 1
+        event = self.names.count
+        return st.bind({nm: self.names.fresh(v, why=f"{nm} {why}", event=event)
+                        for nm, v in variables.items()})
+
+    # ---- the rules
+    def exec(self, p: Program, st: State, k: Callable[[State], None]) -> None:
+        if isinstance(p, Assign):
+            k(st.bind(self._write(st, p.target, st.value(p.value))))
+        elif isinstance(p, Havoc):
+            k(st.bind(self._write(st, p.target, self.names.fresh(_root(p.target).payload,
+                                                                 p.target.sort, "chosen"))))
+        elif isinstance(p, Test):
+            if has_modality(p.cond):
+                raise ModelError(f"test `?{p.cond}` must be first-order (no [.] or <.> inside)")
+            k(st.assume(st.value(p.cond)))
+        elif isinstance(p, Seq):
+            self._seq(p.parts, st, k)
+        elif isinstance(p, Choice):
+            for label, alt in zip(p.labels, p.alternatives):
+                self.exec(alt, st.at(label), k)
+        elif isinstance(p, Loop):
+            self._loop(p, st, k)
+        elif isinstance(p, ODE):
+            self._ode(p, st, k)
+        else:  # pragma: no cover
+            raise TypeError(p)
+
+    def _seq(self, parts: tuple[Program, ...], st: State, k: Callable[[State], None]) -> None:
+        if not parts:
+            k(st)
+            return
+        self.exec(parts[0], st, lambda s: self._seq(parts[1:], s, k))
+
+    def _write(self, st: State, target: Node, value: Node) -> dict[str, Node]:
+        if target.op == "var":
+            return {target.payload: value}
+        root = _root(target)
+        indices = tuple(st.value(i) for i in _indices(target))
+        return {root.payload: store(st.value(root), indices, value)}
+
+    def _loop(self, p: Loop, st: State, k: Callable[[State], None]) -> None:
+        inv = p.invariant
+        if inv is None:
+            inv = self.theorem.guarantee
+        self.emit(st.at(f"{p.label} init"), inv, "invariant holds initially")
+        inside = self.havoc(st, written(p.body), f"in {p.label}")
+        inside = inside.assume(inside.value(expand_modalities(inv, self.names)))
+        self.exec(p.body, inside.at(f"{p.label} step"),
+                  lambda s: self.emit(s, inv, "invariant preserved"))
+        k(inside.at(f"{p.label} use"))
+
+    def _ode(self, p: ODE, st: State, k: Callable[[State], None]) -> None:
+        if p.invariants:
+            self._ode_cuts(p, st, k)
+            return
+        s = Var("s@flow")
+        sol = polynomial_solution(p, s)
+        if sol is None:  # differential weakening: anything inside the domain
+            after = self.havoc(st, {v.payload: v for v in p.variables}, "after ODE")
+            k(after.assume(after.value(p.domain)).at("ODE dW"))
+            return
+        tau = self.names.fresh("t", why="ODE duration")
+        along = holds_along(p.domain, sol, tau, s)
+        end = {name: st.value(substitute(x, {s.name: tau})) for name, x in sol.items()}
+        k(st.assume(tau >= 0, st.value(along)).bind(end).at("ODE solve"))
+
+    def _ode_cuts(self, p: ODE, st: State, k: Callable[[State], None]) -> None:
+        after = self.havoc(st, {v.payload: v for v in p.variables}, "during ODE")
+        known = [p.domain]
+        for n, inv in enumerate(p.invariants, 1):
+            self.emit(st.at(f"ODE dI {n} init"), inv, "holds initially")
+            cond = dI_condition(inv, p)
+            self.emit(after.assume(*(after.value(f) for f in known)).at(f"ODE dI {n}"), cond,
+                      "derivative condition")
+            known.append(inv)
+        k(after.assume(*(after.value(f) for f in known)).at("ODE dC/dW"))
+
+
+def _root(target: Node) -> Node:
+    while target.op == "select":
+        target = target.args[0]
+    return target
+
+
+def _indices(target: Node) -> tuple[Node, ...]:
+    idx: list[Node] = []
+    while target.op == "select":
+        idx[:0] = target.args[1:]
+        target = target.args[0]
+    return tuple(idx)
+
+
+def generate(theorem: Theorem) -> list[Obligation]:
+    """All proof obligations of a theorem, in proof-tree order."""
+    return VCGen(theorem).run()
+

@@ -1,0 +1,80 @@
+"""Turning solver answers into verdicts (soundness-critical, kept small).
+
+proved   : z3 found the obligation's negation unsatisfiable.
+refuted  : z3 produced a state, and that state, substituted into the obligation, makes it
+           false when evaluated exactly (rationals) or with rational intervals (algebraic
+           numbers); only for quantified obligations do we fall back to z3's own evaluation
+           of its model, and we say so.
+unknown  : anything else — timeouts, solver give-ups, a model that does not re-check.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from certiloop.proofs.core.exact import truth
+from certiloop.proofs.core.interval import Interval, show_value
+from certiloop.proofs.core.solver import ArrayValue, SolverAnswer
+
+
+@dataclass
+class ObligationResult:
+    id: str
+    path: str
+    verdict: str  # proved | refuted | unknown
+    seconds: float
+    backend: str = "z3"
+    reason: str = ""
+    counterexample: dict[str, str] | None = None
+    check: str = ""  # how a counterexample was confirmed
+    raw_model: dict[str, Any] | None = field(default=None, repr=False)
+
+    def to_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        d.pop("raw_model")
+        return d
+
+
+def _exactness(model: dict[str, Any]) -> str:
+    def approx(v: Any) -> bool:
+        if isinstance(v, Interval):
+            return True
+        if isinstance(v, ArrayValue):
+            return any(approx(x) for x in v.entries.values()) or approx(v.default)
+        return False
+
+    return "interval arithmetic" if any(approx(v) for v in model.values()) else "exact rationals"
+
+
+def readable(model: dict[str, Any]) -> dict[str, str]:
+    shown = {k: v for k, v in model.items() if not k.startswith("#")}
+    return {name: show_value(v) for name, v in sorted(shown.items(), key=lambda kv: _order(kv[0]))}
+
+
+def _order(name: str) -> tuple:
+    base, _, n = name.partition("@")
+    return (1 if n else 0, int(n) if n.isdigit() else 0, base)
+
+
+def judge(ob_id: str, path: str, formula, answer: SolverAnswer, seconds: float) -> ObligationResult:
+    if answer.status == "unsat":
+        return ObligationResult(ob_id, path, "proved", seconds)
+    if answer.status == "unknown":
+        return ObligationResult(ob_id, path, "unknown", seconds, reason=answer.reason)
+    model = answer.model or {}
+    holds = truth(formula, model)
+    cex = readable(model)
+    if holds is False:
+        return ObligationResult(ob_id, path, "refuted", seconds, counterexample=cex,
+                                check=_exactness(model), raw_model=model)
+    if holds is True:
+        return ObligationResult(
+            ob_id, path, "unknown", seconds, counterexample=cex,
+            reason="BUG: z3's counterexample does not falsify the obligation when re-checked exactly",
+        )
+    if answer.model_falsifies:
+        return ObligationResult(ob_id, path, "refuted", seconds, counterexample=cex,
+                                check="z3 model evaluation (quantified obligation)", raw_model=model)
+    return ObligationResult(ob_id, path, "unknown", seconds, counterexample=cex,
+                            reason="z3 reported a counterexample that could not be confirmed")

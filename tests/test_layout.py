@@ -1,0 +1,102 @@
+"""The package layout the design promises: no import cycles, and who may import whom."""
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = ("models", "proofs", "falsify", "kernel")
+
+
+def _modules() -> dict[str, Path]:
+    out = {}
+    for top in PACKAGES:
+        for path in (ROOT / top).rglob("*.py"):
+            parts = path.relative_to(ROOT).with_suffix("").parts
+            name = "certiloop." + ".".join(parts)
+            out[name.removesuffix(".__init__")] = path
+    return out
+
+
+def _imports(modules: dict[str, Path]) -> dict[str, set[str]]:
+    """Every certiloop module a module imports, at top level or inside a function. Importing
+    a submodule (`from pkg import sub`) counts as importing `sub`, not `pkg`'s other parts."""
+    graph: dict[str, set[str]] = {m: set() for m in modules}
+    for name, path in modules.items():
+        tree = ast.parse(path.read_text())
+        typing_only = {id(n) for block in ast.walk(tree) if isinstance(block, ast.If)
+                       and ast.unparse(block.test) == "TYPE_CHECKING" for n in ast.walk(block)}
+        for node in ast.walk(tree):
+            if id(node) in typing_only:  # annotations only, never imported at run time
+                continue
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("certiloop"):
+                subs = [f"{node.module}.{a.name}" for a in node.names if f"{node.module}.{a.name}" in modules]
+                graph[name].update(subs)
+                if len(subs) < len(node.names) and node.module in modules:
+                    graph[name].add(node.module)
+            elif isinstance(node, ast.Import):
+                graph[name].update(a.name for a in node.names if a.name in modules)
+    return graph
+
+
+def _cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan)."""
+    index, low, stack, on, out = {}, {}, [], set(), []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph[v]):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1 or v in graph[v]:
+                out.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return out
+
+
+GRAPH = _imports(_modules())
+
+
+def test_no_import_cycles():
+    assert _cycles(GRAPH) == []
+
+
+def _importers(prefix: str) -> dict[str, set[str]]:
+    return {m: {t for t in targets if t.startswith("certiloop.")}
+            for m, targets in GRAPH.items() if m.startswith(prefix)}
+
+
+def test_models_import_nothing_of_ours_but_models():
+    for module, targets in _importers("certiloop.models").items():
+        assert all(t.startswith("certiloop.models") for t in targets), module
+
+
+def test_the_trusted_core_imports_only_the_language_and_itself():
+    for module, targets in _importers("certiloop.proofs.core").items():
+        bad = [t for t in targets if not t.startswith(("certiloop.models.lang", "certiloop.proofs.core"))]
+        assert not bad, (module, bad)
+
+
+def test_nothing_in_the_core_can_be_reached_around():
+    """Only the core decides verdicts: no module outside it defines a function of that name."""
+    for name, path in _modules().items():
+        if name.startswith("certiloop.proofs.core"):
+            continue
+        tree = ast.parse(path.read_text())
+        defined = {n.name for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
+        assert not defined & {"judge", "decide_theorem", "ObligationResult"}, name
