@@ -70,6 +70,9 @@ class Run:
     step_starts: list[float] = field(default_factory=list)  # model time at each control step
     violated: str | None = None  # the guarantee part that failed, with its margin
     final: dict[str, Any] = field(default_factory=dict)  # the last checkpoint's state, unrounded
+    # flows followed in closed form: (ODE, state before, duration, state after), so that a
+    # replay can confirm them by numerical integration
+    closed_form_flows: list[tuple[ODE, dict[str, Any], Any, dict[str, Any]]] = field(default_factory=list)
 
     @property
     def worst(self) -> float:
@@ -248,7 +251,10 @@ class Interpreter:
         if not self._holds(flow.domain_holds, s, p.domain):
             raise Blocked("evolution domain false")
         watch = self._worst if self.top is not None else None
+        before = copy_state(s) if flow.solution is not None else None
         end, tau, samples = flow.run(s, self.chooser.duration, self.horizon, watch)
+        if before is not None:
+            self.out.closed_form_flows.append((p, before, tau, dict(end)))
         for t, st in samples:
             scalars = {k: float(v) for k, v in st.items()
                        if isinstance(v, (float, Fraction)) and "@" not in k}

@@ -18,7 +18,7 @@ from typing import Any
 
 from certiloop.falsify.choosers import Chooser, Diverged
 from certiloop.falsify.evaluate import Blocked, Table
-from certiloop.falsify.flows import Inexact
+from certiloop.falsify.flows import Inexact, confirm_numerically
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
 from certiloop.falsify.search import FLOAT_TOLERANCE
 from certiloop.models.lang.programs import Loop, children
@@ -30,12 +30,28 @@ class ReplayOutcome:
     violated: bool
     message: str  # what happened, for the CLI
     run: Run | None = None
+    flows_confirmed: bool = False  # every closed-form flow agrees with a numerical integration
 
     def to_json(self) -> dict[str, Any]:
-        return {"violated": self.violated, "message": self.message}
+        return {"violated": self.violated, "message": self.message, "flows_confirmed": self.flows_confirmed}
 
 
 def replay_refutation(theorem: Theorem, refutation) -> ReplayOutcome:
+    """Replay, then confirm the run's closed-form flows numerically."""
+    outcome = _replay(theorem, refutation)
+    if not outcome.violated or outcome.run is None:
+        return outcome
+    flows = outcome.run.closed_form_flows
+    for ode, before, tau, after in flows:
+        disagreement = confirm_numerically(ode, before, tau, after)
+        if disagreement:
+            return ReplayOutcome(True, f"{outcome.message}; but a flow on it does not check: {disagreement}",
+                                 outcome.run, flows_confirmed=False)
+    checked = f"; {len(flows)} flow(s) confirmed by numerical integration" if flows else ""
+    return ReplayOutcome(True, outcome.message + checked, outcome.run, flows_confirmed=True)
+
+
+def _replay(theorem: Theorem, refutation) -> ReplayOutcome:
     values = Values(refutation.raw_initial)
     try:
         initial = values.state()

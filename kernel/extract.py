@@ -1,42 +1,70 @@
-"""Extract a model's discrete controller into vectorised numpy code.
+"""Extract a verified model's control step (or algorithm) into runtime Python.
 
-The controller is the part of the outer loop's body before the plant ODE. Its shape is
-the one the seeds use: inputs read nondeterministically (`fxp := *`), scalar assignments,
-and a `foreach` over a family of boundaries whose body computes per-boundary values
-through labelled choices and folds them into a scalar with `k := min(k, kt)`.
+What is extracted — "the control step" of the model's outer loop:
+  * `{step; plant}*` whose plant is one ODE (a clock reset such as `t := 0` just before
+    it belongs to the plant): the statements before the ODE (sbs.ctrl2, textbook.train);
+  * `{plant; step}*`, a loop that runs its plant first (textbook.bouncing_ball): the
+    statements after the ODE, applied to the state the plant reached;
+  * `{step; mode1 ∪ mode2 ∪ ...}*` whose plant is a choice of ODEs, each with its evolution
+    domain (sbs.ctrl1): the step and the choice of the mode; the function returns the rates
+    `x_dot` the chosen mode gives the variables the modes set differently;
+  * a program with no ODE at all (a Hoare triple such as cfmpa.builtdr): the whole program,
+    an algorithm over integer-indexed arrays, with its `for` loops.
+
+Two code shapes, each documented in the generated module's docstring:
+  * a step over a family of boundaries (a `foreach`, or reads of families) is vectorised
+    with numpy over the family, one mask per alternative of each choice (the shape of the
+    shipped `kernel/ctrl2.py`);
+  * everything else (scalar controllers, algorithms) is plain scalar Python with `if`/`elif`
+    chains and `for` loops; reals are converted to numpy float64 on entry, so a division by
+    zero or an overflow gives inf/NaN (reported as "no run"), never an exception.
+
+Every generated module has the header MODEL, MODEL_HASH, INPUTS (scalar parameters),
+FAMILIES (array parameters) and one entry function `controller(...)` returning
+`(*outputs, enabled)`; its docstring names the outputs. The outputs are the values the step
+computes that the plant (the ODE), the loop invariant or the guarantee read: the gain `k` of
+ctrl2, the acceleration `a` of the train, the array `P` of builtDR. When the step computes no
+such value but admits a command chosen elsewhere (`acc := *; ?acc >= 0`), the admitted
+command is the output and the function is its check.
 
 Code generation follows the syntax tree:
-  * `x := e` becomes `x = <e>`; a family cell `u(i) := e` the array `u`;
-  * `x := *` followed by a test that pins x by a linear equation (`tmp*G*X = 1`) becomes the
-    solved value, guarded by the coefficient being non-zero (a zero divisor blocks that
-    branch, exactly as in the model);
-  * a choice becomes one mask per alternative (the conjunction of its tests) and
-    `np.select` over the masks: the first enabled alternative, in the model's order, is
-    taken. Any enabled alternative is a run of the model, so this deterministic choice
-    is one of the runs the proof covers. Where no alternative is enabled the model has no
-    run and the generated code says so (`enabled` is False): the caller must fall back;
-  * `?kt >= k; k := k  ∪  ?kt < k; k := kt` inside the loop is the reduction
-    k = min(k, min over boundaries of kt).
-Anything else is refused with a message naming the statement.
+  * `x := e` becomes `x = <e>`; a family cell `u(i) := e` the array `u`; an array cell
+    `P[k][i][j] := e` the assignment `P[k, i, j] = <e>`;
+  * `x := *` at the top of the step is an input (a parameter) unless a later test pins it
+    down by an equation: `tmp*G*X = 1` becomes the solved value guarded by the coefficient
+    being non-zero (a zero divisor blocks that branch, exactly as in the model);
+    `root*root*G = 2*d0*fnp` (quadratic) becomes its two roots, tried in turn; a family
+    `F := *; ?∀j (F(j) <-> E(j))` becomes `F = E`;
+  * a choice: the first enabled alternative, in the model's order, is taken. Any enabled
+    alternative is a run of the model, so this deterministic choice is one of the runs the
+    proof covers. Where no alternative is enabled the model has no run and the generated
+    code says so (`enabled` is False): the caller must fall back. A choice nested in an
+    alternative is flattened into paths (alternative, sub-alternative) in the same order;
+  * a test outside a choice: `enabled` is False where it fails;
+  * `?kt >= k; k := k  ∪  ?kt < k; k := kt` inside a `foreach` is the reduction
+    k = min(k, min over the family's members of kt);
+  * `for` loops (`i := lo; {?i < hi; body; i := i + 1}*; ?i >= hi`) become `for i in range(lo, hi)`.
+Anything else is refused with a one-line ExtractError naming the statement and why.
+Whether the model is proved is not checked here: the CLI refuses unproved models first.
 """
 
 from __future__ import annotations
 
+import keyword
 import re
 from dataclasses import dataclass, field
 
-from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test
-from certiloop.models.lang.terms import ModelError, Node
+from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
+from certiloop.models.lang.terms import BOOL, INT, REAL, ModelError, Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
 
 HEADER = '''"""Generated by `certiloop extract {model}` — do not edit; re-extract instead.
 
-The verified discrete controller of `{model}` ({description}),
-vectorised over the family of boundaries. Every line comes from the model's syntax tree;
-comments name the model's branch labels.
+The verified {what} of `{model}` ({description}),
+{how}
 """
 
-import numpy as np
+{imports}
 
 MODEL = {model!r}
 MODEL_HASH = {hash!r}  # the model's content hash when this code was extracted
@@ -44,9 +72,45 @@ INPUTS = {inputs!r}
 FAMILIES = {families!r}
 '''
 
+VECTORISED = ("vectorised over the family of boundaries. Every line comes from the model's syntax tree;\n"
+              "comments name the model's branch labels.")
+LABELS = "Every line comes from the model's syntax tree; comments name its branch labels."
+SCALAR = {
+    "before": ("as plain scalar Python: call it once per control period with the state measured before\n"
+               "the plant runs. " + LABELS),
+    "after": ("as plain scalar Python: the model runs its plant first, so call it with the state the\n"
+              "plant reached (the discrete step that follows the flow). " + LABELS),
+    "modes": ("as plain scalar Python: the model's controller picks a plant mode (an ODE with an\n"
+              "evolution domain); the function returns the rates `x_dot` of the first mode, in the\n"
+              "model's order, whose domain holds in the given state. The model may switch modes at\n"
+              "any time, so this is a continuous controller: evaluate it at the rate the plant needs.\n"
+              + LABELS),
+    "algorithm": ("as plain Python loops over numpy arrays (the model is a Hoare triple with no plant).\n"
+                  + LABELS),
+}
+ENTRY = "controller"
+MAX_PATHS = 512  # alternatives after flattening nested choices
+BLOCKED = "return __BLOCKED__"  # replaced once the outputs are known
+# names the generated code uses itself
+RESERVED = set(keyword.kwlist) | {"np", "operator", "enabled", "taken", "skipped", ENTRY, "float", "int",
+                                  "bool", "range", "max", "MODEL", "MODEL_HASH", "INPUTS", "FAMILIES"}
+
 
 class ExtractError(ModelError):
     """The model's controller is not of a shape the extractor supports."""
+
+
+def _brief(x: object, width: int = 90) -> str:
+    """A statement or formula on one line, shortened."""
+    text = " ".join(str(x).split())
+    return text if len(text) <= width else text[: width - 3] + "..."
+
+
+def _refuse(what: object, why: str) -> ExtractError:
+    return ExtractError(f"cannot extract `{_brief(what)}`: {why}")
+
+
+# =========================================================================== vectorised code
 
 
 @dataclass
@@ -57,6 +121,8 @@ class _Alternative:
 
 
 class _Emitter:
+    """numpy code over a family: every boundary at once."""
+
     def __init__(self, index: str | None) -> None:
         self.index = index  # the foreach variable inside the loop body, else None
         self.lines: list[str] = []
@@ -65,6 +131,9 @@ class _Emitter:
         self.families: dict[str, None] = {}
         self.opened: set[str] = set()  # `x := *` not yet pinned down by a test
         self.shared: dict[str, str] = {}  # comparison code -> the temporary holding it
+        self.skip: str | None = None  # mask of the family members a foreach does not visit
+        self.pending: dict[str, bool] = {}  # family `F := *` not pinned yet -> F was read before
+        self.counter = [0]  # temporaries made so far (shared with nested emitters: unique names)
 
     # ---------------------------------------------------------------- expressions
     def code(self, n: Node, subst: dict[str, str] | None = None) -> str:
@@ -79,6 +148,8 @@ class _Emitter:
             return "False"
         if op == "var":
             name = n.payload
+            if _is_index_sort(n.sort):
+                raise _refuse(n, "a family's index is only usable to read the family (f(i))")
             if name in subst:
                 return subst[name]
             if name in self.local:
@@ -94,8 +165,13 @@ class _Emitter:
                 return subst[name]
             if name in self.local:
                 return self.local[name]
+            if self.pending.pop(name, False):
+                raise ExtractError(f"`{name} := *` gives {name} a new value after the step read it, and "
+                                   f"`{_brief(n)}` reads it before a test `∀j ({name}(j) <-> ...)` pins it")
             self.families[name] = None
             return name
+        if op in ("forall", "exists"):
+            return self._quantified(n, subst)
         a = [self.code(x, subst) for x in n.args]
         if op == "+":
             return "(" + " + ".join(a) + ")"
@@ -104,6 +180,8 @@ class _Emitter:
         if op == "neg":
             return f"(-{a[0]})"
         if op == "/":
+            if n.args[1].op != "const" and not any(_reads_family(x) for x in n.args):
+                return f"np.divide({a[0]}, {a[1]})"  # two Python floats: inf, not ZeroDivisionError
             return f"({a[0]} / {a[1]})"
         if op == "^":
             return a[0] if n.payload == 1 else f"({a[0]} ** {n.payload})"
@@ -117,22 +195,40 @@ class _Emitter:
         if op == "or":
             return "(" + " | ".join(a) + ")"
         if op == "not":
-            return f"(~{a[0]})"
+            return f"np.logical_not({a[0]})"
         if op == "implies":
-            return f"((~{a[0]}) | {a[1]})"
+            return f"(np.logical_not({a[0]}) | {a[1]})"
+        if op == "iff":
+            return f"({a[0]} == {a[1]})"
         raise ExtractError(f"cannot extract `{n}` into runtime code")
+
+    def _quantified(self, n: Node, subst: dict[str, str]) -> str:
+        """∀j P(j) over the family's index: P for every member at once, then np.all."""
+        bound = n.payload
+        if len(bound) != 1 or not _is_index_sort(bound[0].sort) or self.index is not None:
+            raise _refuse(n, "only a quantifier over one family index, outside a foreach, is vectorised")
+        self.index = bound[0].payload
+        try:
+            body = self.code(n.args[0], subst)
+        finally:
+            self.index = None
+        return f"np.all({body})" if n.op == "forall" else f"np.any({body})"
 
     def _shared(self, text: str) -> str:
         """A comparison the ten cases repeat (0 <= d0, d0 <= D, ...) is computed once."""
         name = self.shared.get(text)
         if name is None:
-            name = self.shared[text] = f"t{len(self.shared) + 1}"
+            self.counter[0] += 1
+            name = self.shared[text] = f"t{self.counter[0]}"
             self.lines.append(f"{name} = {text}")
         return name
 
     def _assigned(self, var: str) -> None:
         """var has a new value: shared comparisons that read it are stale."""
         self.shared = {t: n for t, n in self.shared.items() if not re.search(rf"\b{var}\b", t)}
+
+    def _enabled(self, masks: str) -> str:
+        return f"enabled &= {self.skip} | {masks}" if self.skip else f"enabled &= {masks}"
 
     # ---------------------------------------------------------------- statements
     def statement(self, p: Program) -> None:
@@ -152,8 +248,12 @@ class _Emitter:
             self.opened.add(name)
         elif isinstance(p, Choice):
             self.choice(p)
+        elif isinstance(p, Test):
+            for atom in _conjuncts(p.cond):
+                if atom.op != "true":
+                    self.lines.append(self._enabled(self.code(atom)))
         else:
-            raise ExtractError(f"cannot extract the statement `{p}`")
+            raise _refuse(p, "only assignments, tests, choices and min-updates are vectorised")
 
     def choice(self, p: Choice) -> None:
         tags = [_tag(label, k) for k, label in enumerate(p.labels)]
@@ -176,7 +276,7 @@ class _Emitter:
             self.local[var] = var
             self._assigned(var)
             self.opened.discard(var)
-        self.lines.append(f"enabled &= {' | '.join(masks)}")
+        self.lines.append(self._enabled(" | ".join(masks)))
 
     def alternative(self, p: Program, tag: str) -> _Alternative:
         alt = _Alternative()
@@ -195,7 +295,8 @@ class _Emitter:
                         subst[solved] = name
                         alt.effects[solved] = name  # x := *; ?x = v  is  x := v
                         continue
-                    alt.mask.append(self.code(atom, subst))
+                    if atom.op != "true":
+                        alt.mask.append(self.code(atom, subst))
             elif isinstance(q, Havoc):
                 name = _target_name(q.target, self.index)
                 opened.append(name)
@@ -205,8 +306,11 @@ class _Emitter:
                 value = self.code(q.value, subst)
                 alt.effects[name] = value
                 subst[name] = value
+            elif isinstance(q, Choice):
+                raise _refuse(q, "a choice nested in an alternative is not vectorised (flatten it into "
+                              "the outer choice)")
             else:
-                raise ExtractError(f"cannot extract `{q}` inside a choice")
+                raise _refuse(q, "only tests, assignments and `x := *` are vectorised inside a choice")
         for v in opened:
             if v not in subst and v not in self.opened:
                 raise ExtractError(f"`{v} := *` is never pinned down by a test; cannot extract")
@@ -228,8 +332,16 @@ def _mentions(atom: Node, name: str) -> bool:
     if atom.op == "var":
         return atom.payload == name
     if atom.op == "select":
-        return atom.args[0].payload == name
+        return atom.args[0].payload == name or any(_mentions(a, name) for a in atom.args[1:])
     return any(_mentions(a, name) for a in atom.args)
+
+
+def _reads_family(n: Node) -> bool:
+    return n.op == "select" or any(_reads_family(a) for a in n.args)
+
+
+def _is_index_sort(sort) -> bool:
+    return not sort.is_numeric and sort != BOOL and not sort.is_array
 
 
 def _target_name(target: Node, index: str | None) -> str:
@@ -247,10 +359,13 @@ def _solve(atom: Node, name: str) -> tuple[Node, Node]:
 
     from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
 
-    if atom.op != "cmp" or atom.payload != "==":
+    if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
         raise ExtractError(f"`{name} := *` must be pinned by an equation, not by `{atom}`")
     table = SympyTable()
-    g = sympy.expand(to_sympy(atom.args[0] - atom.args[1], table))
+    try:
+        g = sympy.expand(to_sympy(atom.args[0] - atom.args[1], table))
+    except TypeError:
+        raise ExtractError(f"cannot solve `{_brief(atom)}` for `{name}`: not arithmetic") from None
     xs = [s for s in g.free_symbols if _is(table.atom(s), name)]
     if len(xs) != 1:
         raise ExtractError(f"cannot solve `{atom}` for `{name}`")
@@ -267,73 +382,106 @@ def _is(atom: Node, name: str) -> bool:
     return atom.op == "select" and atom.args[0].payload == name
 
 
-# --------------------------------------------------------------------------- the controller
-
-
-def _loop_body(theorem: Theorem) -> list[Program]:
-    p = theorem.program
-    if not isinstance(p, Loop):
-        raise ExtractError(f"{theorem.name}: the program must be a control loop to extract a controller")
-    body = p.body.parts if isinstance(p.body, Seq) else (p.body,)
-    for k, q in enumerate(body):
-        clock_reset = isinstance(q, Assign) and k + 1 < len(body) and isinstance(body[k + 1], ODE)
-        if isinstance(q, ODE) or clock_reset:
-            return list(body[:k])
-    raise ExtractError(f"{theorem.name}: the control loop is not a discrete controller followed by the "
-                       "plant ODE, so there is no controller to extract")
-
-
-def controller(theorem: Theorem, inputs: bool = True) -> Program:
-    """The discrete controller: the control loop's statements before the plant; without
-    the statements that read its inputs (`fxp := *`) if inputs is False."""
-    from certiloop.models.lang.programs import seq
-
-    body = _loop_body(theorem)
-    if not inputs:
-        body = [q for q in body if not (isinstance(q, Havoc) and q.target.op == "var"
-                                        and not q.target.sort.is_array)]
-    return seq(*body)
-
-
-def extract(theorem: Theorem) -> str:
-    """Python source computing the controller's outputs with numpy."""
-    if theorem.expected != "proved":
-        raise ExtractError(f"{theorem.name} is expected to be refuted: only verified controllers are "
-                           "extracted")
+def _vectorised(theorem: Theorem, step: "_Step") -> str:
     em = _Emitter(None)
-    inputs: list[str] = []
-    scaffolding: set[str] = set()  # `done` families of foreach loops
-    for q in _loop_body(theorem):
+    done = {q.each.done.payload for q in step.parts if isinstance(q, Loop) and q.each is not None}
+    pending: dict[str, Havoc] = {}  # family `F := *` not yet pinned down by a test
+    reductions: dict[str, None] = {}
+    for q in step.parts:
         if isinstance(q, Havoc) and q.target.op == "var" and q.target.sort.is_array:
-            scaffolding.add(q.target.payload)
+            name = q.target.payload
+            if name in done:
+                continue  # foreach's bookkeeping
+            pending[name] = q
+            # read before: the parameter holds the old value, so only a test can give the new one
+            em.pending[name] = name in em.families or name in em.local
         elif isinstance(q, Havoc) and q.target.op == "var":
-            inputs.append(q.target.payload)
-        elif isinstance(q, Test) and any(_mentions(q.cond, f) for f in scaffolding):
-            continue  # foreach's "none done yet" / "all done" tests
+            continue  # an input: a parameter where the step reads it
+        elif isinstance(q, Havoc):
+            raise _refuse(q, "a single cell's `:= *` outside a foreach is not vectorised")
+        elif isinstance(q, Test):
+            if any(_mentions(q.cond, f) for f in done):
+                continue  # foreach's "none done yet" / "all done" tests
+            for atom in _conjuncts(q.cond):
+                pin = _family_pin(atom, pending)
+                if pin is None:
+                    if atom.op != "true":
+                        em.lines.append(f"enabled &= {em.code(atom)}")
+                    continue
+                name, value, var = pin
+                em.index = var
+                try:
+                    code = em.code(value)
+                finally:
+                    em.index = None
+                dtype = "bool" if pending[name].target.sort.range == BOOL else "float"
+                em.lines.append(f"{name} = np.array({code}, dtype={dtype})  # from {_brief(atom)}")
+                em.local[name] = name
+                em._assigned(name)
+                del pending[name]
+                em.pending.pop(name, None)
         elif isinstance(q, Assign):
             em.statement(q)
         elif isinstance(q, Loop):
-            _foreach(em, q)
+            reductions.update(dict.fromkeys(_foreach(em, q)))
+        elif isinstance(q, Choice):
+            em.choice(q)
         else:
-            raise ExtractError(f"cannot extract the controller statement `{q}`")
-    body = _without_dead(em.lines, keep={"k", "enabled"})
-    params = list(dict.fromkeys([*em.reads, *inputs]))
+            raise _refuse(q, "not a statement of a vectorised controller")
+    unpinned = [name for name, was_read in em.pending.items() if was_read]
+    if unpinned:
+        raise _refuse(pending[unpinned[0]], "the step read this family before, and no test "
+                      f"`∀j ({unpinned[0]}(j) <-> ...)` pins its new value down")
+    assigned = [v for v in em.local if em.local[v] == v]
+    outputs = _outputs(theorem, step, assigned, [], set())
+    body = _without_dead(em.lines, keep={*outputs, "enabled", "skipped"})
+    params = list(em.reads)
     families = list(em.families)
-    outputs = [v for v in em.local if v not in families and em.local[v] == v]
-    result = "k" if "k" in outputs else outputs[-1]
+    _check_names(theorem, [*params, *families, *assigned], vectorised=True)
     src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
-                        inputs=params, families=families)
+                        inputs=params, families=families, what="discrete controller", how=VECTORISED,
+                        imports="import numpy as np")
     args = ", ".join([*params, *families])
-    src += f"\n\ndef controller({args}):\n"
-    src += ('    """The gain the proof allows, and whether the model has a run at all (if not,\n'
-            '    the caller must fall back). Families are 1-D arrays over the boundaries."""\n')
+    src += f"\n\ndef {ENTRY}({args}):\n"
+    if outputs == ["k"] and "k" in reductions:
+        src += ('    """The gain the proof allows, and whether the model has a run at all (if not,\n'
+                '    the caller must fall back). Families are 1-D arrays over the boundaries."""\n')
+    else:
+        returns = ", ".join(outputs)
+        src += (f'    """Returns ({returns}, enabled): the values the proof allows, and whether the\n'
+                '    model has a run at all (if not, the caller must fall back; the other values are then\n'
+                '    meaningless). Families are 1-D numpy arrays over the boundaries (Bool families:\n'
+                '    arrays of bool)."""\n')
     src += "    enabled = True\n"
     src += "    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):\n"
     for line in body:
         src += f"        {line}\n"
+    finite = ""
+    for v in outputs:
+        sort = _sort_of(theorem, v, REAL)
+        if sort == REAL:
+            finite += f" and bool(np.isfinite({v}))"
+        elif sort.is_array and sort.range == REAL:
+            finite += f" and bool(np.all(np.isfinite({v})))"
     src += "    # floating-point overflow (1/(G fn²) for fn = 1e-160) is no run the proof covers\n"
-    src += f"    return {result}, bool(np.all(enabled)) and bool(np.isfinite({result}))\n"
+    src += f"    return {', '.join(outputs)}, bool(np.all(enabled)){finite}\n"
     return src
+
+
+def _family_pin(atom: Node, pending: dict[str, Havoc]) -> tuple[str, Node, str] | None:
+    """`∀j (F(j) <-> E(j))` (or `F(j) = E(j)`) for an open family F: (F, E, j), else None."""
+    if atom.op != "forall" or len(atom.payload) != 1:
+        return None
+    j = atom.payload[0].payload
+    body = atom.args[0]
+    if not (body.op == "iff" or (body.op == "cmp" and body.payload == "==")):
+        return None
+    for side, other in ((body.args[0], body.args[1]), (body.args[1], body.args[0])):
+        if side.op == "select" and side.args[0].payload in pending and len(side.args) == 2 \
+                and side.args[1].op == "var" and side.args[1].payload == j \
+                and not _mentions(other, side.args[0].payload):
+            return side.args[0].payload, other, j
+    return None
 
 
 def _without_dead(lines: list[str], keep: set[str]) -> list[str]:
@@ -348,16 +496,24 @@ def _without_dead(lines: list[str], keep: set[str]) -> list[str]:
     return list(reversed(out))
 
 
-def _foreach(em: _Emitter, loop: Loop) -> None:
-    """The loop over boundaries: its body vectorised, its min-updates as reductions."""
+def _foreach(em: _Emitter, loop: Loop) -> list[str]:
+    """The loop over boundaries: its body vectorised, its min-updates as reductions.
+    Returns the reduced variables."""
     steps = list(loop.body.parts) if isinstance(loop.body, Seq) else []
-    if len(steps) < 3:
-        raise ExtractError(f"{loop.label}: expected a foreach loop over boundaries")
+    if loop.each is None or len(steps) < 3:
+        raise ExtractError(f"cannot extract the loop `{loop.label}`: only a foreach over a family (or a "
+                           "`for` loop in a scalar step) is extracted")
     index_havoc, guard, *inner, mark_done = steps
     if not isinstance(index_havoc, Havoc) or index_havoc.target.op != "var":
         raise ExtractError(f"{loop.label}: expected `i := *` first")
-    inner_em = _Emitter(index_havoc.target.payload)
+    index = index_havoc.target.payload
+    inner_em = _Emitter(index)
     inner_em.local.update({k: v for k, v in em.local.items()})
+    inner_em.counter = em.counter
+    if loop.each.member.op != "true":
+        inner_em.skip = "skipped"
+        inner_em.lines.append(f"skipped = np.logical_not({inner_em.code(loop.each.member)})  "
+                              f"# boundaries the loop does not visit")
     reductions: list[tuple[str, str]] = []
     for s in inner:
         red = _min_update(s)
@@ -373,10 +529,13 @@ def _foreach(em: _Emitter, loop: Loop) -> None:
     em.lines.append(f"# {loop.label}: every boundary at once")
     em.lines.extend(inner_em.lines)
     for var, value in reductions:
+        if inner_em.skip:
+            value = f"np.where(skipped, np.inf, {value})"
         em.lines.append(f"{var} = np.minimum({em.local.get(var, var)}, np.min({value}, initial=np.inf))")
         em.local[var] = var
     em.reads.update(inner_em.reads)
     em.families.update(inner_em.families)
+    return [var for var, _ in reductions]
 
 
 def _min_update(p: Program) -> tuple[str, Node] | None:
@@ -405,6 +564,821 @@ def _scalars_written(p: Program, index: str) -> list[str]:
         parts = p.parts if isinstance(p, Seq) else p.alternatives
         return [v for q in parts for v in _scalars_written(q, index)]
     return []
+
+
+# =========================================================================== scalar Python
+
+
+@dataclass
+class _Root:
+    """One solution of an equation for x: guards (formulas), then the value."""
+
+    guards: list[Node]
+    kind: str  # "value" | "sqrt+" | "sqrt-" | "quad+" | "quad-"
+    parts: tuple[Node, ...]
+    note: str = ""
+
+
+def _solutions(atom: Node, name: str) -> list[_Root]:
+    """The solutions of an equation that pins `name`, in the order they are tried: a
+    linear a·x + b = 0 has one (guarded by a ≠ 0); a quadratic has two, the one with
+    +sqrt first (guarded by a ≠ 0 and a non-negative discriminant), then the linear one
+    where a symbolic leading coefficient vanishes. Anything else is refused."""
+    import sympy
+
+    from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
+
+    if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
+        raise ExtractError(f"`{name} := *` must be pinned by an equation before `{_brief(atom)}` reads it")
+    table = SympyTable()
+    try:
+        g = sympy.expand(to_sympy(atom.args[0] - atom.args[1], table))
+    except TypeError:
+        raise ExtractError(f"cannot solve `{_brief(atom)}` for `{name}`: not arithmetic") from None
+    xs = [s for s in g.free_symbols if _is(table.atom(s), name)]
+    if len(xs) != 1:
+        raise ExtractError(f"cannot solve `{_brief(atom)}` for `{name}`")
+    x = xs[0]
+    try:
+        poly = sympy.Poly(g, x)
+    except sympy.PolynomialError:
+        raise ExtractError(f"`{_brief(atom)}` is not polynomial in `{name}`") from None
+    if poly.degree() not in (1, 2):
+        raise ExtractError(f"`{_brief(atom)}` has degree {poly.degree()} in `{name}`: only linear and "
+                           "quadratic equations are solved")
+    a2, a1, a0 = (sympy.expand(poly.coeff_monomial(x**d)) for d in (2, 1, 0))
+    back = lambda e: from_sympy(sympy.together(e), table)  # noqa: E731
+
+    def nonzero(c) -> list[Node]:
+        return [] if c.is_number else [back(c) != 0]
+
+    try:
+        return _roots(poly.degree(), a2, a1, a0, back, nonzero)
+    except TypeError:  # from_sympy: a term the model language cannot write
+        raise ExtractError(f"cannot solve `{_brief(atom)}` for `{name}`") from None
+
+
+def _roots(degree: int, a2, a1, a0, back, nonzero) -> list[_Root]:
+    if degree == 1:
+        return [_Root(nonzero(a1), "value", (back(-a0 / a1),))]
+    import sympy
+
+    roots: list[_Root]
+    if a1 == 0:
+        radicand = sympy.together(-a0 / a2)
+        roots = [_Root([*nonzero(a2), back(radicand) >= 0], kind, (back(radicand),), note)
+                 for kind, note in (("sqrt+", ""), ("sqrt-", " (negative root)"))]
+    else:
+        disc = sympy.expand(a1**2 - 4 * a2 * a0)
+        roots = [_Root([*nonzero(a2), back(disc) >= 0], kind, (back(a1), back(disc), back(a2)), note)
+                 for kind, note in (("quad+", ""), ("quad-", " (second root)"))]
+    if not a2.is_number and a1 != 0:
+        roots.append(_Root([back(a2) == 0, *nonzero(a1)], "value", (back(-a0 / a1),), " (linear case)"))
+    return roots
+
+
+@dataclass
+class _Path:
+    """One way through an alternative (nested choices flattened): its conditions and
+    helper values in order, then its effects."""
+
+    tag: str
+    label: str
+    items: list[tuple[str, ...]] = field(default_factory=list)  # ("if", code) | ("let", name, code)
+    subst: dict[str, str | None] = field(default_factory=dict)  # variable -> code; None: open here
+    effects: dict[str, str] = field(default_factory=dict)  # variable -> value code
+    cells: list[tuple[str, str, str]] = field(default_factory=list)  # (array, indices, value)
+
+    def fork(self, tag: str, label: str) -> "_Path":
+        return _Path(tag, label, list(self.items), dict(self.subst), dict(self.effects), list(self.cells))
+
+
+class _Python:
+    """Plain scalar Python: `if`/`elif` for choices, `for` loops, early return when the
+    model has no run."""
+
+    def __init__(self, symbols: dict[str, Node], live: set[str], step: Program) -> None:
+        self.symbols = dict(symbols)
+        self.live = set(live)  # read by the plant, the invariant or the guarantee
+        self.step = step  # for what later statements read
+        self.lines: list[str] = []
+        self.depth = 2
+        self.params: dict[str, None] = {}  # read before assigned, in order
+        self.defined: set[str] = set()  # names holding a value in the generated code
+        self.assigned: dict[str, None] = {}  # names the step computes, in order
+        self.opened: dict[str, None] = {}  # top-level `x := *` not yet read or pinned
+        self.inputs: dict[str, None] = {}  # `x := *` read as they are: parameters
+        self.pinned: set[str] = set()  # `x := *` solved for somewhere
+        self.tested: set[str] = set()  # names some test reads
+        self.array_reads: set[str] = set()
+        self.array_writes: dict[str, list[tuple[Node, ...] | None]] = {}  # array -> loop bounds per write
+        self.loops: list[tuple[str, Node, Node]] = []  # enclosing for loops (counter, lo, hi)
+        self.taken: set[str] = set(symbols) | RESERVED
+
+    def line(self, text: str) -> None:
+        self.lines.append("    " * self.depth + text)
+
+    def fresh(self, base: str) -> str:
+        name, n = base, 2
+        while name in self.taken:
+            name, n = f"{base}{n}", n + 1
+        self.taken.add(name)
+        return name
+
+    def read(self, name: str) -> str:
+        if name in self.opened:
+            if name in self.defined:
+                raise ExtractError(f"`{name} := *` gives {name} a new value after the step read it, and no "
+                                   "test pins it down: it would need a second parameter")
+            del self.opened[name]
+            self.inputs[name] = None
+        if name not in self.defined:
+            self.params[name] = None
+            self.defined.add(name)
+        return name
+
+    # ---------------------------------------------------------------- expressions
+    def code(self, n: Node, subst: dict[str, str | None] | None = None, real: bool = False) -> str:
+        subst = subst if subst is not None else {}
+        op = n.op
+        if op == "const":
+            v = n.payload
+            if v.denominator == 1 and n.sort == INT and not real:
+                return str(int(v))
+            return repr(float(v)) if v.denominator != 1 else f"{int(v)}.0"
+        if op == "true":
+            return "True"
+        if op == "false":
+            return "False"
+        if op == "var":
+            name = n.payload
+            if n.sort.is_array or _is_index_sort(n.sort):
+                raise _refuse(n, "a whole array or a family index in a scalar step")
+            if name in subst:
+                if subst[name] is None:
+                    raise ExtractError(f"`{name} := *` is read before a test pins it down; cannot extract")
+                return subst[name]
+            return self.read(name)
+        if op == "select":
+            root = n.args[0].payload
+            if f"[{root}]" in subst:
+                raise _refuse(n, f"reads {root} after the same alternative wrote one of its cells")
+            if any(_is_index_sort(s) for s in n.args[0].sort.domain):
+                raise _refuse(n, "a family over an index sort needs the vectorised form (a foreach)")
+            idx = [self.code(a, subst) for a in n.args[1:]]
+            self.array_reads.add(root)
+            self.read(root)
+            return f"{root}[{', '.join(idx)}]"
+        if op == "cmp":
+            r = any(a.sort == REAL for a in n.args)
+            a = [self.code(x, subst, r) for x in n.args]
+            return f"({a[0]} {n.payload} {a[1]})"
+        if op in ("+", "*", "neg", "/", "^"):
+            r = real or n.sort == REAL or op == "/"
+            a = [self.code(x, subst, r) for x in n.args]
+            if op == "+":
+                return "(" + " + ".join(a) + ")"
+            if op == "*":
+                return "(" + " * ".join(a) + ")"
+            if op == "neg":
+                return f"(-{a[0]})"
+            if op == "/":
+                return f"({a[0]} / {a[1]})"
+            return a[0] if n.payload == 1 else f"({a[0]} ** {n.payload})"
+        a = [self.code(x, subst) for x in n.args]
+        if op == "and":
+            return "(" + " and ".join(a) + ")" if a else "True"
+        if op == "or":
+            return "(" + " or ".join(a) + ")" if a else "False"
+        if op == "not":
+            return f"(not {a[0]})"
+        if op == "implies":
+            return f"((not {a[0]}) or {a[1]})"
+        if op == "iff":
+            return f"({a[0]} == {a[1]})"
+        raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
+
+    def test_code(self, atom: Node, subst: dict[str, str | None] | None = None) -> str:
+        self.tested.update(free_vars(atom))
+        return self.code(atom, subst)
+
+    def root_code(self, root: _Root, subst: dict[str, str | None]) -> str:
+        c = [self.code(p, subst, True) for p in root.parts]
+        if root.kind == "value":
+            return c[0]
+        if root.kind == "sqrt+":
+            return f"np.sqrt({c[0]})"
+        if root.kind == "sqrt-":
+            return f"(-np.sqrt({c[0]}))"
+        sign = "+" if root.kind == "quad+" else "-"
+        return f"(((-{c[0]}) {sign} np.sqrt({c[1]})) / (2.0 * {c[2]}))"
+
+    # ---------------------------------------------------------------- statements
+    def block(self, parts: list[Program] | tuple[Program, ...]) -> None:
+        parts = list(parts)
+        k = 0
+        while k < len(parts):
+            loop = _for_range_at(parts, k)
+            if loop is not None:
+                self.for_loop(parts[k: k + 3], *loop)
+                k += 3
+                continue
+            self.statement(parts[k])
+            k += 1
+
+    def statement(self, q: Program) -> None:
+        if isinstance(q, Seq):
+            self.block(q.parts)
+        elif isinstance(q, Assign) and q.target.op == "var":
+            name = q.target.payload
+            value = self.code(q.value, real=q.target.sort == REAL)
+            self.opened.pop(name, None)
+            self.line(f"{name} = {value}")
+            self.defined.add(name)
+            self.assigned[name] = None
+        elif isinstance(q, Assign):
+            root = q.target.args[0].payload
+            idx = ", ".join(self.code(a) for a in q.target.args[1:])
+            value = self.code(q.value, real=q.target.sort == REAL)
+            self.array_write(root, q.target)
+            self.line(f"{root}[{idx}] = {value}")
+        elif isinstance(q, Havoc) and q.target.op == "var" and not q.target.sort.is_array:
+            self.opened[q.target.payload] = None
+        elif isinstance(q, Havoc):
+            raise _refuse(q, "an array's or a cell's `:= *` is only extracted in a foreach")
+        elif isinstance(q, Test):
+            self.test(q)
+        elif isinstance(q, Choice):
+            self.choice(q)
+        elif isinstance(q, Loop):
+            raise _refuse(q, "only `for` loops (`i := lo; {?i < hi; ...; i := i + 1}*; ?i >= hi`) are "
+                          "extracted: a loop with no exit test repeats any number of times")
+        elif isinstance(q, ODE):
+            raise _refuse(q, "a second ODE inside the control step")
+        else:
+            raise _refuse(q, "unknown statement")
+
+    def array_write(self, root: str, target: Node) -> None:
+        """Note the loop bounds that index a cell write (to allocate a write-only array)."""
+        bounds: list[Node] | None = []
+        counters = {c: (lo, hi) for c, lo, hi in self.loops}
+        for a in target.args[1:]:
+            lo_hi = counters.get(a.payload) if a.op == "var" else None
+            if lo_hi is None or lo_hi[0].op != "const" or lo_hi[0].payload < 0:
+                bounds = None
+                break
+            bounds.append(lo_hi[1])
+        self.array_writes.setdefault(root, []).append(tuple(bounds) if bounds is not None else None)
+        self.defined.add(root)
+        self.assigned[root] = None
+
+    def test(self, q: Test) -> None:
+        for atom in _conjuncts(q.cond):
+            if atom.op == "true":
+                continue
+            target = next((v for v in self.opened if _mentions(atom, v)), None)
+            if target is not None and atom.op == "cmp" and atom.payload == "==":
+                roots = _solutions(atom, target)
+                if len(roots) != 1:
+                    raise _refuse(atom, f"a quadratic equation pins `{target}` outside a choice: which root "
+                                  "to take depends on what follows; put it in a choice's alternative")
+                for g in roots[0].guards:
+                    self.line(f"if not {self.test_code(g)}:")
+                    self.line(f"    {BLOCKED}")
+                self.line(f"{target} = {self.root_code(roots[0], {})}  # from {_brief(atom)}")
+                del self.opened[target]
+                self.pinned.add(target)
+                self.defined.add(target)
+                self.assigned[target] = None
+                continue
+            self.line(f"if not {self.test_code(atom)}:")
+            self.line(f"    {BLOCKED}")
+
+    def for_loop(self, statements: list[Program], var: str, lo: Node, hi: Node, body: list[Program]) -> None:
+        changed = written(Seq(tuple(body))) if body else {}
+        if lo.sort != INT or hi.sort != INT:
+            raise _refuse(statements[1], "a `for` loop's bounds must be Int terms")
+        for name in [var, *free_vars(lo), *free_vars(hi)]:
+            if name in changed:
+                raise _refuse(statements[1], f"the loop's body writes `{name}`, which its counter or bounds "
+                              "read")
+        lo_code, hi_code = self.code(lo), self.code(hi)
+        later = _reads(self.step, skip={id(s) for s in statements})
+        for name, sym in changed.items():  # a value for the case the loop runs zero times
+            if not sym.sort.is_array and name not in self.defined and name in (later | self.live):
+                self.read(name)
+        self.line(f"for {var} in range({lo_code}, {hi_code}):")
+        self.depth += 1
+        self.defined.add(var)
+        self.assigned[var] = None
+        self.loops.append((var, lo, hi))
+        before = len(self.lines)
+        self.block(body)
+        if len(self.lines) == before:
+            self.line("pass")
+        self.loops.pop()
+        self.depth -= 1
+        if var in later or var in self.live:
+            self.line(f"{var} = max({lo_code}, {hi_code})")
+
+    # ---------------------------------------------------------------- choices
+    def choice(self, p: Choice) -> None:
+        paths: list[_Path] = []
+        for k, (alt, label) in enumerate(zip(p.alternatives, p.labels)):
+            paths += self.walk(_parts(alt), [_Path(_tag(label, k), label)])
+            if len(paths) > MAX_PATHS:
+                raise _refuse(p, f"more than {MAX_PATHS} ways through its nested choices")
+        live = self.live | _reads(self.step, skip={id(p)})
+        for path in paths:
+            for v, s in path.subst.items():
+                if s is None and v in live and not v.startswith("["):
+                    raise _refuse(p, f"`{v} := *` in `{path.label}` is never pinned down but read later")
+        commits: list[list[str]] = []
+        changed: dict[str, None] = {}
+        for path in paths:
+            lines = [f"{v} = {value}" for v, value in path.effects.items() if v in live]
+            changed.update((v, None) for v in path.effects if v in live)
+            for root, idx, value in path.cells:
+                lines.append(f"{root}[{idx}] = {value}")
+            commits.append(lines)
+        for v in changed:  # left as it was by some alternative: its value before the choice
+            if v not in self.defined and any(v not in path.effects for path in paths):
+                self.read(v)
+        self.line(f"# choice: {' | '.join(p.labels)}")
+        if all(item[0] == "if" for path in paths for item in path.items):
+            self._elif_chain(paths, commits)
+        else:
+            self._attempts(paths, commits)
+        for v in changed:
+            self.defined.add(v)
+            self.assigned[v] = None
+        for path in paths:
+            for root, _, _ in path.cells:
+                self.defined.add(root)
+                self.assigned[root] = None
+
+    def _elif_chain(self, paths: list[_Path], commits: list[list[str]]) -> None:
+        for n, (path, body) in enumerate(zip(paths, commits)):
+            conds = [item[1] for item in path.items if item[1] != "True"]
+            if not conds:  # always enabled: the alternatives after it are never tried
+                if n + 1 < len(paths):
+                    self.line(f"# never tried: {' | '.join(q.label for q in paths[n + 1:])} "
+                              f"(`{path.label}` is always enabled)")
+                if n == 0:
+                    self.line(f"# {path.label}")
+                    for text in body:
+                        self.line(text)
+                else:
+                    self.line(f"else:  # {path.label}")
+                    for text in body or ["pass"]:
+                        self.line(f"    {text}")
+                return
+            self.line(f"{'if' if n == 0 else 'elif'} {' and '.join(conds)}:  # {path.label}")
+            for text in body or ["pass"]:
+                self.line(f"    {text}")
+        self.line("else:  # no alternative is enabled: the model has no run")
+        self.line(f"    {BLOCKED}")
+
+    def _attempts(self, paths: list[_Path], commits: list[list[str]]) -> None:
+        """Alternatives whose conditions need helper values (a solved `x := *`): each tried
+        in turn, nested ifs so that every value is computed only where its guard holds."""
+        self.line("taken = False")
+        for path, body in zip(paths, commits):
+            self.line(f"# {path.label}")
+            depth = self.depth
+            pending = ["not taken"]
+            for item in path.items:
+                if item[0] == "if":
+                    if item[1] != "True":
+                        pending.append(item[1])
+                    continue
+                if pending:
+                    self.line(f"if {' and '.join(pending)}:")
+                    self.depth += 1
+                    pending = []
+                self.line(f"{item[1]} = {item[2]}")
+            if pending:
+                self.line(f"if {' and '.join(pending)}:")
+                self.depth += 1
+            for text in body:
+                self.line(text)
+            self.line("taken = True")
+            self.depth = depth
+        self.line("if not taken:  # no alternative is enabled: the model has no run")
+        self.line(f"    {BLOCKED}")
+
+    def walk(self, statements: list[Program], paths: list[_Path]) -> list[_Path]:
+        for q in statements:
+            paths = [r for path in paths for r in self.in_path(q, path)]
+            if len(paths) > MAX_PATHS:
+                raise _refuse(q, f"more than {MAX_PATHS} ways through nested choices")
+        return paths
+
+    def in_path(self, q: Program, path: _Path) -> list[_Path]:
+        if isinstance(q, Seq):
+            return self.walk(list(q.parts), [path])
+        if isinstance(q, Choice):
+            out: list[_Path] = []
+            for k, (alt, label) in enumerate(zip(q.alternatives, q.labels)):
+                sub = path.fork(f"{path.tag}_{_tag(label, k)}", f"{path.label} / {label}")
+                out += self.walk(_parts(alt), [sub])
+            return out
+        if isinstance(q, Test):
+            paths = [path]
+            for atom in _conjuncts(q.cond):
+                if atom.op != "true":
+                    paths = [r for p in paths for r in self.atom_in_path(atom, p)]
+            return paths
+        if isinstance(q, Havoc) and q.target.op == "var" and not q.target.sort.is_array:
+            path.subst[q.target.payload] = None
+            path.effects.pop(q.target.payload, None)
+            return [path]
+        if isinstance(q, Assign) and q.target.op == "var":
+            name = q.target.payload
+            value = self.code(q.value, path.subst, q.target.sort == REAL)
+            path.subst[name] = value
+            path.effects[name] = value
+            return [path]
+        if isinstance(q, Assign):
+            root = q.target.args[0].payload
+            idx = ", ".join(self.code(a, path.subst) for a in q.target.args[1:])
+            path.cells.append((root, idx, self.code(q.value, path.subst, q.target.sort == REAL)))
+            path.subst[f"[{root}]"] = None
+            self.array_write(root, q.target)
+            return [path]
+        raise _refuse(q, "only tests, assignments, `x := *` and choices are extracted inside a choice")
+
+    def atom_in_path(self, atom: Node, path: _Path) -> list[_Path]:
+        target = next((v for v, s in path.subst.items() if s is None and not v.startswith("[")
+                       and _mentions(atom, v)), None)
+        if target is None:
+            target = next((v for v in self.opened if v not in path.subst and _mentions(atom, v)
+                           and atom.op == "cmp" and atom.payload == "=="), None)
+        if target is None:
+            path.items.append(("if", self.test_code(atom, path.subst)))
+            return [path]
+        roots = _solutions(atom, target)
+        out = []
+        for root in roots:
+            r = path if len(roots) == 1 else path.fork(path.tag, path.label + root.note)
+            for g in root.guards:
+                r.items.append(("if", self.test_code(g, r.subst)))
+            name = self.fresh(f"{target}_{r.tag}")
+            r.items.append(("let", name, f"{self.root_code(root, r.subst)}  # from {_brief(atom)}"))
+            r.subst[target] = name
+            r.effects[target] = name
+            self.pinned.add(target)
+            out.append(r)
+        return out
+
+
+def _parts(p: Program) -> list[Program]:
+    return list(p.parts) if isinstance(p, Seq) else [p]
+
+
+def _for_range_at(parts: list[Program], k: int) -> tuple[str, Node, Node, list[Program]] | None:
+    """`i := lo; {?i < hi; body; i := i + 1}*; ?i >= hi` at parts[k]: (i, lo, hi, body)."""
+    if k + 2 >= len(parts):
+        return None
+    init, loop, exit_ = parts[k: k + 3]
+    if not (isinstance(init, Assign) and init.target.op == "var" and init.target.sort == INT
+            and isinstance(loop, Loop) and isinstance(exit_, Test) and isinstance(loop.body, Seq)):
+        return None
+    var = init.target
+    steps = loop.body.parts
+    first, last = steps[0], steps[-1]
+    if not (isinstance(first, Test) and first.cond.op == "cmp" and first.cond.payload == "<"
+            and first.cond.args[0].key == var.key):
+        return None
+    hi = first.cond.args[1]
+    if not (isinstance(last, Assign) and last.target.key == var.key and last.value.key == (var + 1).key):
+        return None
+    if exit_.cond.key != (var >= hi).key:
+        return None
+    return var.payload, init.value, hi, list(steps[1:-1])
+
+
+def _reads(p: Program, skip: set[int] = frozenset()) -> set[str]:
+    """Names a program reads at run time (values, tests, cell indices, ODEs)."""
+    if id(p) in skip:
+        return set()
+    out: set[str] = set()
+    if isinstance(p, (Assign, Havoc)):
+        if p.target.op == "select":
+            for a in p.target.args[1:]:
+                out |= set(free_vars(a))
+        if isinstance(p, Assign):
+            out |= set(free_vars(p.value))
+    elif isinstance(p, Test):
+        out |= set(free_vars(p.cond))
+    elif isinstance(p, ODE):
+        for v, f in p.eqs:
+            out |= {v.payload, *free_vars(f)}
+        out |= set(free_vars(p.domain))
+    elif isinstance(p, (Seq, Choice)):
+        for q in p.parts if isinstance(p, Seq) else p.alternatives:
+            out |= _reads(q, skip)
+    elif isinstance(p, Loop):
+        out |= _reads(p.body, skip)
+    return out
+
+
+def _python(theorem: Theorem, step: "_Step") -> str:
+    parts = list(step.parts)
+    symbols = {**free_vars(theorem.assumptions), **theorem.program.symbols(), **free_vars(theorem.guarantee)}
+    live = set(step.reads)
+    rates: list[str] = []
+    if step.where == "modes":
+        modes, rates = _mode_choice(step.plant, symbols)
+        parts.append(modes)
+        live |= set(rates)
+        symbols.update((r, Var(r, REAL)) for r in rates)
+    py = _Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
+    py.block(parts)
+    if py.pinned & set(py.inputs):
+        both = sorted(py.pinned & set(py.inputs))
+        raise ExtractError(f"`{both[0]} := *` is pinned by an equation on some paths and read as an input "
+                           "on others; cannot extract")
+    outputs = rates or _outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
+    params = list(py.params)
+    _check_names(theorem, [*params, *py.assigned])
+    sort = lambda v: symbols[v].sort  # noqa: E731
+    scalars = [v for v in params if not sort(v).is_array]
+    arrays = [v for v in params if sort(v).is_array]
+    allocated: dict[str, str] = {}
+    changed = written(theorem.program)
+    for name, writes in py.array_writes.items():
+        if name in params or name in py.array_reads or name in free_vars(theorem.assumptions):
+            continue
+        if None in writes or len({tuple(b.key for b in w) for w in writes}) != 1 \
+                or any(v in changed for b in writes[0] for v in free_vars(b)):
+            arrays.append(name)  # cells it does not write keep the caller's values
+            params.append(name)
+            continue
+        dims = [f"max({py.code(b)}, 0)" for b in writes[0]]
+        allocated[name] = f"({dims[0]},)" if len(dims) == 1 else f"({', '.join(dims)})"
+    params = scalars + arrays  # scalars first, then arrays
+    what = "algorithm" if step.where == "algorithm" else "discrete controller"
+    imports = "import operator\n\nimport numpy as np" if any(sort(v) == INT for v in scalars) else \
+        "import numpy as np"
+    src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
+                        inputs=scalars, families=arrays, what=what, how=SCALAR[step.where], imports=imports)
+    src += f"\n\ndef {ENTRY}({', '.join(params)}):\n"
+    admitted = not rates and all(v in py.inputs for v in outputs)
+    src += _python_doc(outputs, step.where, admitted, scalars, sort, allocated,
+                       [a for a in arrays if a in py.array_writes])
+    for v in scalars:
+        s = sort(v)
+        conv = "np.float64" if s == REAL else "operator.index" if s == INT else "bool"
+        src += f"    {v} = {conv}({v})\n"
+    for v in arrays:
+        make = "np.array" if v in py.array_writes else "np.asarray"  # a copy where the step writes
+        src += f"    {v} = {make}({v}, dtype={_dtype(sort(v).range)})\n"
+    for v, shape in allocated.items():
+        src += f"    {v} = np.zeros({shape}, dtype={_dtype(sort(v).range)})\n"
+    body = py.lines or ["        pass"]
+    src += "    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):\n"
+    blocked = ", ".join(["np.nan"] * len(outputs) + ["False"])
+    for line in body:
+        src += line.replace("__BLOCKED__", blocked) + "\n"
+    values, finite = [], []
+    for v in outputs:
+        s = sort(v)
+        if s.is_array:
+            values.append(v)
+            if s.range == REAL:
+                finite.append(f"bool(np.all(np.isfinite({v})))")
+        else:
+            values.append(f"{'float' if s == REAL else 'int' if s == INT else 'bool'}({v})")
+            if s == REAL:
+                finite.append(f"bool(np.isfinite({v}))")
+    if finite:
+        src += "    # floating-point overflow is no run the proof covers\n"
+    src += f"    return {', '.join(values)}, {' and '.join(finite) or 'True'}\n"
+    return src
+
+
+def _python_doc(outputs: list[str], where: str, admitted: bool, scalars: list[str], sort,
+                allocated: dict[str, str], copied: list[str]) -> str:
+    if where == "modes":
+        what = "the rates of the first mode, in the model's order, whose evolution domain holds in this state"
+    elif where == "algorithm":
+        what = "the values the verified algorithm leaves"
+    elif admitted:
+        what = "the command as given, when the verified model admits it"
+    else:
+        what = ("the values the verified model computes for this state (where several alternatives of a "
+                "choice are enabled, the first in the model's order)")
+    paras = [f"Returns ({', '.join(outputs)}, enabled): {what}, and whether the model has a run at all. "
+             "enabled is False when no alternative of a choice (or a test) admits the state"
+             + (", or the arithmetic overflowed" if any(sort(v) == REAL for v in scalars) else "")
+             + "; the other values are then NaN and the caller must fall back."]
+    conversions = []
+    if any(sort(v) == REAL for v in scalars):
+        conversions.append("Real parameters are converted to numpy float64: a division by zero or an "
+                           "overflow gives inf/NaN (reported as enabled = False), never an exception.")
+    if any(sort(v) == INT for v in scalars):
+        conversions.append("Int parameters must be integers.")
+    if conversions:
+        paras.append(" ".join(conversions))
+    arrays = []
+    for v, shape in allocated.items():
+        arrays.append(f"{v} is allocated with zeros of shape {shape}: the algorithm writes all its cells.")
+    for v in copied:
+        arrays.append(f"{v} is copied; cells the algorithm does not write keep the values passed in.")
+    if allocated or copied or any(sort(v).is_array for v in outputs):
+        arrays.append("Arrays are numpy arrays indexed from 0; an index outside an array is the caller's "
+                      "error (IndexError).")
+    if arrays:
+        paras.append(" ".join(arrays))
+    return '    """' + "\n\n".join(_wrap(para, 4) for para in paras).lstrip() + '\n    """\n'
+
+
+def _wrap(text: str, indent: int, width: int = 96) -> str:
+    rows, row = [], ""
+    for word in text.split():
+        if row and indent + len(row) + 1 + len(word) > width:
+            rows.append(row)
+            row = word
+        else:
+            row = f"{row} {word}" if row else word
+    rows.append(row)
+    return "\n".join(" " * indent + r for r in rows)
+
+
+def _dtype(sort) -> str:
+    return "float" if sort == REAL else "int" if sort == INT else "bool"
+
+
+def _mode_choice(plant: Choice, symbols: dict[str, Node]) -> tuple[Choice, list[str]]:
+    """The choice of plant modes as a choice of rate assignments: each mode's domain is its
+    test, its right-hand sides the rates `x_dot` (of the variables the modes set differently)."""
+    odes = [_parts(alt)[-1] for alt in plant.alternatives]
+    names = [tuple(v.payload for v in ode.variables) for ode in odes]
+    if len(set(map(frozenset, names))) != 1:
+        raise _refuse(plant, "its modes evolve different variables")
+    rhs = [{v.payload: f for v, f in ode.eqs} for ode in odes]
+    varying = [v for v in names[0] if len({r[v].key for r in rhs}) > 1] or list(names[0])
+    rates = {v: f"{v}_dot" for v in varying}
+    for r in rates.values():
+        if r in symbols:
+            raise ExtractError(f"the rate name `{r}` is a symbol of the model; cannot extract")
+    alts = []
+    for alt, ode, r in zip(plant.alternatives, odes, rhs):
+        pre = _parts(alt)[:-1]
+        alts.append(Seq((*pre, Test(ode.domain), *(Assign(Var(rates[v], REAL), r[v]) for v in varying))))
+    return Choice(tuple(alts), plant.labels), list(rates.values())
+
+
+# =========================================================================== the control step
+
+
+@dataclass
+class _Step:
+    parts: list[Program]  # the step's statements
+    where: str  # "before" | "after" | "modes" (the plant) | "algorithm" (no plant)
+    plant: Program | None  # the ODE, the choice of modes, or None
+    reads: set[str]  # what the plant, the loop invariant and the guarantee read
+    plant_reads: set[str]  # what the plant alone reads
+
+
+def _has_ode(p: Program) -> bool:
+    if isinstance(p, ODE):
+        return True
+    parts = p.parts if isinstance(p, Seq) else p.alternatives if isinstance(p, Choice) else \
+        (p.body,) if isinstance(p, Loop) else ()
+    return any(_has_ode(q) for q in parts)
+
+
+def _is_modes(p: Program) -> bool:
+    """A choice whose every alternative ends in an ODE (with no other ODE): plant modes."""
+    if not isinstance(p, Choice):
+        return False
+    for alt in p.alternatives:
+        parts = _parts(alt)
+        if not isinstance(parts[-1], ODE) or any(_has_ode(q) for q in parts[:-1]):
+            return False
+    return True
+
+
+def _split(theorem: Theorem) -> _Step:
+    p = theorem.program
+    guarantee = set(free_vars(theorem.guarantee))
+    if not _has_ode(p):
+        if isinstance(p, Loop):
+            raise _refuse(p, "a loop with no plant and no exit test repeats any number of times: there is "
+                          "no control step or algorithm result to extract")
+        return _Step(_parts(p), "algorithm", None, guarantee, set())
+    if not isinstance(p, Loop):
+        raise ExtractError(f"cannot extract `{_brief(p)}`: the program has a plant ODE but is not a control "
+                           "loop `{step; plant}*`")
+    body = _parts(p.body)
+    plants = [k for k, q in enumerate(body) if isinstance(q, ODE) or _is_modes(q)]
+    if len(plants) != 1:
+        nested = next((q for q in body if _has_ode(q) and not (isinstance(q, ODE) or _is_modes(q))), None)
+        if nested is not None:
+            raise _refuse(nested, "the plant ODE is nested in this statement; only `{step; plant}*`, "
+                          "`{plant; step}*` and a choice of ODE modes are extracted")
+        raise ExtractError(f"cannot extract `{_brief(p)}`: the control loop has {len(plants)} plant ODEs; "
+                           "expected one")
+    k = plants[0]
+    before, after, plant = list(body[:k]), list(body[k + 1:]), body[k]
+    if any(_has_ode(q) for q in before + after):
+        second = next(q for q in before + after if _has_ode(q))
+        raise _refuse(second, "a second plant ODE in the control loop")
+    if isinstance(plant, ODE):
+        # the plant's initialisation (clock resets t := 0) right before the ODE belongs to it
+        flows = {v.payload for v in plant.variables}
+        while before and isinstance(before[-1], Assign) and before[-1].target.op == "var" \
+                and before[-1].target.payload in flows:
+            before.pop()
+    plant_reads = _reads(plant)
+    if isinstance(plant, ODE):
+        plant_reads |= {v.payload for v in plant.variables}
+    reads = plant_reads | guarantee
+    if p.invariant is not None:
+        reads |= set(free_vars(p.invariant))
+    if _is_modes(plant):
+        if after:
+            raise _refuse(after[0], "statements after a choice of plant modes")
+        return _Step(before, "modes", plant, reads, plant_reads)
+    if before and after:
+        raise _refuse(after[0], "discrete statements both before and after the plant ODE: which state the "
+                      "step reads is ambiguous")
+    if not before and not after:
+        raise ExtractError(f"cannot extract `{_brief(p)}`: the control loop has no discrete step, only the "
+                           "plant")
+    return _Step(before or after, "before" if before else "after", plant, reads, plant_reads)
+
+
+def _outputs(theorem: Theorem, step: _Step, assigned: list[str], inputs: list[str],
+             tested: set[str]) -> list[str]:
+    """What the step computes that the plant reads, then what only the invariant or the
+    guarantee read; failing that, the commands it admits (inputs the plant reads and a
+    test checks)."""
+    outputs = [v for v in assigned if v in step.plant_reads]
+    outputs += [v for v in assigned if v in step.reads and v not in outputs]
+    if not outputs:
+        outputs = [v for v in inputs if v in step.plant_reads and v in tested]
+    if not outputs:
+        what = "algorithm" if step.where == "algorithm" else "control step"
+        raise ExtractError(f"{theorem.name}: the {what} "
+                           "computes nothing the plant, the invariant or the guarantee reads; nothing to "
+                           "extract")
+    return outputs
+
+
+def _sort_of(theorem: Theorem, name: str, default):
+    symbols = {**free_vars(theorem.assumptions), **theorem.program.symbols(), **free_vars(theorem.guarantee)}
+    return symbols[name].sort if name in symbols else default
+
+
+def _check_names(theorem: Theorem, names: list[str], vectorised: bool = False) -> None:
+    for name in names:
+        generated = vectorised and re.fullmatch(r"t\d+|case_\w+", name)
+        if name in RESERVED or not name.isidentifier() or generated:
+            raise ExtractError(f"{theorem.name}: the symbol `{name}` clashes with a name the generated "
+                               "code uses; rename it to extract")
+
+
+def _uses_families(parts: list[Program]) -> bool:
+    if any(isinstance(q, Loop) and q.each is not None for q in parts):
+        return True
+    symbols = Seq(tuple(parts)).symbols() if parts else {}
+    return any(s.sort.is_array and any(_is_index_sort(d) for d in s.sort.domain) for s in symbols.values())
+
+
+def controller(theorem: Theorem, inputs: bool = True) -> Program:
+    """The control step as a program: the control loop's statements before the plant (after
+    it, for a loop that runs its plant first; with the choice of modes, for a switched
+    plant; the whole program, for an algorithm); without the statements that read its
+    scalar inputs (`fxp := *`) if inputs is False."""
+    from certiloop.models.lang.programs import seq
+
+    step = _split(theorem)
+    body = list(step.parts) + ([step.plant] if step.where == "modes" else [])
+    if not inputs:
+        body = [q for q in body if not (isinstance(q, Havoc) and q.target.op == "var"
+                                        and not q.target.sort.is_array)]
+    return seq(*body)
+
+
+def extract(theorem: Theorem) -> str:
+    """Python source of the model's control step (or algorithm): one function `controller`.
+    Raises ExtractError, with a one-line reason, for a shape it cannot extract."""
+    try:
+        step = _split(theorem)
+        if _uses_families(step.parts):
+            if step.where in ("modes", "algorithm"):
+                raise ExtractError("a family of boundaries in a switched plant or an algorithm is not "
+                                   "vectorised")
+            return _vectorised(theorem, step)
+        return _python(theorem, step)
+    except ModelError as exc:
+        message = " ".join(str(exc).split())
+        if not message.startswith(f"{theorem.name}:"):
+            message = f"{theorem.name}: {message}"
+        raise ExtractError(message) from None
 
 
 # --------------------------------------------------------------------------- shipped kernels

@@ -9,12 +9,12 @@ import textwrap
 import pytest
 import z3
 
-from certiloop.proofs.cli.main import main
+from certiloop.proofs.cli import main
 
 
 def run(*args, cwd=None):
     """Run the installed console script as a user would (no terminal: no progress bar)."""
-    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli.main", *args],
+    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", *args],
                           capture_output=True, text=True, cwd=cwd, timeout=300,
                           env={**os.environ, "COLUMNS": "200"})
     return proc.returncode, proc.stdout, proc.stderr
@@ -110,7 +110,7 @@ def test_user_model_files(tmp_path):
     code, _, err = run("prove", f"{f}:bad_division")
     assert code == 2 and "not a certiloop Theorem" in err
     code, _, err = run("prove", f"{f}:broken")
-    assert code == 2 and "division by `v`" in err and "Traceback" not in err
+    assert code == 2 and "ill-defined" in err and "1/v" in err and "Traceback" not in err
 
 
 def test_syntax_error_in_user_file_names_the_line(tmp_path):
@@ -130,7 +130,7 @@ def test_missing_z3_is_a_one_line_error(tmp_path):
     fake = tmp_path / "z3"
     fake.mkdir()
     (fake / "__init__.py").write_text("raise ImportError('No module named z3')\n")
-    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli.main", "prove", "sbs.ctrl1"],
+    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", "prove", "sbs.ctrl1"],
                           capture_output=True, text=True, timeout=120,
                           env={**os.environ, "PYTHONPATH": str(tmp_path)})
     assert proc.returncode == 2

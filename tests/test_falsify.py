@@ -15,6 +15,7 @@ from certiloop.models.lang.programs import assign, havoc, loop, ode, seq
 from certiloop.models.lang.programs import test as check
 from certiloop.models.lang.terms import And, Reals
 from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.engine import Budget
 from certiloop.proofs.refute.search import refute
 
 REFUTED = [n for n in library.names() if library.get(n).expected == "refuted"]
@@ -136,7 +137,7 @@ def test_float_noise_at_a_boundary_is_not_a_counterexample():
 @pytest.mark.parametrize("name", REFUTED)
 def test_prover_counterexamples_replay_in_the_interpreter(name):
     theorem = library.get(name)
-    refutation, why = refute(theorem, 60)
+    refutation, why = refute(theorem, Budget())
     assert refutation is not None, why
     outcome = replay_refutation(theorem, refutation)
     assert outcome.violated, outcome.message
@@ -144,7 +145,7 @@ def test_prover_counterexamples_replay_in_the_interpreter(name):
 
 def test_a_tampered_counterexample_does_not_replay():
     theorem = library.get("textbook.water_tank_late_check")
-    refutation, _ = refute(theorem, 30)
+    refutation, _ = refute(theorem, Budget())
     refutation.raw_initial = {**refutation.raw_initial, "x": refutation.raw_initial["lo"]}  # far from hi
     assert not replay_refutation(theorem, refutation).violated
 
@@ -153,7 +154,7 @@ def test_a_tampered_counterexample_does_not_replay():
 
 
 def test_cli_falsify_json_plot_and_exit_codes(tmp_path):
-    from certiloop.proofs.cli.main import main
+    from certiloop.proofs.cli import main
 
     out_json, out_png = tmp_path / "f.json", tmp_path / "f.png"
     code = main(["falsify", "textbook.water_tank_late_check", "--max-examples", "200",
@@ -169,7 +170,7 @@ def test_cli_falsify_json_plot_and_exit_codes(tmp_path):
 @pytest.mark.parametrize("argv", [["falsify", "sbs.nope"], ["falsify", "sbs.ctrl1", "--max-examples", "0"],
                                   ["falsify", "sbs.ctrl1", "--plot", "x.pdf"]])
 def test_cli_falsify_bad_input_exits_2(argv, capsys):
-    from certiloop.proofs.cli.main import main
+    from certiloop.proofs.cli import main
 
     assert main(argv) == 2
     assert capsys.readouterr().err.count("\n") == 1

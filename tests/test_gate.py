@@ -6,8 +6,8 @@ import xml.etree.ElementTree as ET
 import pytest
 
 from certiloop.proofs.cli import gate as gate_module
+from certiloop.proofs.cli import main
 from certiloop.proofs.cli.loading import project_models
-from certiloop.proofs.cli.main import main
 from certiloop.proofs.engine.cache import Cache
 from certiloop.proofs.engine.prover import Prover
 
@@ -98,9 +98,9 @@ def test_dask_executor_gives_the_same_verdicts():
 
     with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                                   dashboard_address=None, host="127.0.0.1") as cluster:
-        with Prover(executor=cluster.scheduler_address, timeout_s=30) as remote:
+        with Prover(executor=cluster.scheduler_address) as remote:
             far = [remote.prove(library.get(m)) for m in ("sbs.ctrl2_2d", "sbs.ctrl1_broken")]
-    with Prover(jobs=2, timeout_s=30) as local:
+    with Prover(jobs=2) as local:
         near = [local.prove(library.get(m)) for m in ("sbs.ctrl2_2d", "sbs.ctrl1_broken")]
     for a, b in zip(far, near):
         assert a.verdict == b.verdict

@@ -8,7 +8,7 @@ from certiloop.proofs.engine.prover import Prover
 
 @pytest.fixture(scope="module")
 def prover():
-    with Prover(jobs=2, timeout_s=30) as p:
+    with Prover(jobs=2) as p:
         yield p
 
 

@@ -33,7 +33,7 @@ def obligations(program, pre=True, post=None, **kw):
 
 
 def verdicts(program, pre=True, post=None):
-    return [discharge_one(o, 10).verdict for o in obligations(program, pre, post)]
+    return [discharge_one(o).verdict for o in obligations(program, pre, post)]
 
 
 def test_assignment_substitutes():
@@ -52,7 +52,7 @@ def test_choice_splits_into_labelled_paths():
     prog = choice(branch("up", assign(x, 1)), branch("down", assign(x, -1)))
     obs = obligations(prog)
     assert [o.path for o in obs] == ["up / postcondition", "down / postcondition"]
-    assert [discharge_one(o, 10).verdict for o in obs] == ["proved", "refuted"]
+    assert [discharge_one(o).verdict for o in obs] == ["proved", "refuted"]
 
 
 def test_loop_gives_init_step_use_and_keeps_constant_facts():
@@ -60,12 +60,12 @@ def test_loop_gives_init_step_use_and_keeps_constant_facts():
     obs = obligations(prog, And(x >= 0, y >= 0))
     assert [o.path.split(" / ")[0] for o in obs] == ["loop init", "loop step", "loop use"]
     # y is not written by the loop, so y >= 0 is still known inside it
-    assert all(discharge_one(o, 10).verdict == "proved" for o in obs)
+    assert all(discharge_one(o).verdict == "proved" for o in obs)
 
 
 def test_loop_invariant_that_is_not_inductive_fails_only_the_step():
     prog = loop(assign(x, x - 1), invariant=x >= 0)
-    res = [discharge_one(o, 10).verdict for o in obligations(prog, x >= 5)]
+    res = [discharge_one(o).verdict for o in obligations(prog, x >= 5)]
     assert res == ["proved", "refuted", "proved"]
 
 
@@ -115,7 +115,7 @@ def test_differential_invariant_and_cut():
         "ODE dI 2 / derivative condition",
         "ODE dC/dW / postcondition",
     ]
-    assert all(discharge_one(o, 10).verdict == "proved" for o in obs)
+    assert all(discharge_one(o).verdict == "proved" for o in obs)
     without_cut = ode({x: v, v: a}, a >= 0, invariants=[x >= 0])
     assert "refuted" in verdicts(without_cut, And(x >= 0, v >= 0))
 

@@ -10,13 +10,14 @@ from certiloop.models.lang.programs import Assign, Choice, Seq, assign
 from certiloop.models.lang.terms import And, Or, Reals
 from certiloop.proofs.core.interval import Interval
 from certiloop.proofs.core.vcgen import generate
+from certiloop.proofs.engine import Budget
 from certiloop.proofs.engine.prover import Prover, discharge_one
 from certiloop.proofs.refute.search import refute
 
 
 @pytest.fixture(scope="module")
 def prover():
-    with Prover(jobs=2, timeout_s=30) as p:
+    with Prover(jobs=2) as p:
         yield p
 
 
@@ -52,7 +53,7 @@ def _value(x):
 def test_eqn12_case_4_fails_for_boundaries_at_acute_angles():
     obs = [o for o in generate(library.get("sbs.eqn12")) if o.path.startswith("case 4")]
     (ob,) = obs
-    res = discharge_one(ob, 30, keep_model=True)
+    res = discharge_one(ob, keep_model=True)
     assert res.verdict == "refuted"
     m = res.raw_model
     dot = _value(m["nix"]) * _value(m["njx"]) + _value(m["niy"]) * _value(m["njy"])
@@ -62,7 +63,7 @@ def test_eqn12_case_4_fails_for_boundaries_at_acute_angles():
 def test_eqn12_cases_2_and_3_are_safe():
     for ob in generate(library.get("sbs.eqn12")):
         if ob.path.startswith(("case 2", "case 3")):
-            assert discharge_one(ob, 30).verdict == "proved", ob.path
+            assert discharge_one(ob).verdict == "proved", ob.path
 
 
 def test_immediate_control_crosses_the_buffer_within_one_delay(prover):
@@ -123,7 +124,7 @@ def test_predictive_control_plane_after_plane_fails_only_for_obtuse_normals(prov
     G, e, nx1, ny1, nx2, ny2 = Reals("G e nx1 ny1 nx2 ny2")
     acute = And(G == 1, e == 1, nx1 == 0, ny1 == 1,
                 Or(*(And(nx2 == a, ny2 == b) for a, b in [(1, 0), (-1, 0), (0, 1)])))
-    found, why = refute(replace(theorem, assumptions=And(theorem.assumptions, acute), scenarios=()), 60)
+    found, why = refute(replace(theorem, assumptions=And(theorem.assumptions, acute), scenarios=()), Budget())
     assert found is None and why.startswith("no violating run"), why
 
 

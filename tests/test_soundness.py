@@ -14,6 +14,7 @@ from certiloop.models.lang.terms import cmp
 from certiloop.proofs.core import interval as iv
 from certiloop.proofs.core.exact import truth
 from certiloop.proofs.core.vcgen import generate
+from certiloop.proofs.engine import Budget
 from certiloop.proofs.engine.prover import Prover, discharge_one
 from certiloop.proofs.refute.search import refute
 
@@ -25,7 +26,7 @@ SMALL_MODELS = [n for n in library.names() if len(generate(library.get(n))) <= 4
 @pytest.mark.parametrize("name", SMALL_MODELS)
 def test_every_refuted_obligation_has_a_counterexample_that_falsifies_it(name):
     for ob in generate(library.get(name)):
-        res = discharge_one(ob, 30, keep_model=True)
+        res = discharge_one(ob, keep_model=True)
         if res.verdict == "refuted":
             if res.check.startswith("z3 model evaluation"):
                 continue  # quantified: checked by z3's evaluator, reported as such
@@ -84,7 +85,7 @@ MUTATED = ["sbs.ctrl1", "textbook.train", "textbook.water_tank", "textbook.bounc
 
 @pytest.fixture(scope="module")
 def prover():
-    with Prover(jobs=2, timeout_s=5) as p:
+    with Prover(jobs=2, budget=Budget(rlimit=2_000_000)) as p:
         yield p
 
 
@@ -98,7 +99,7 @@ def test_prover_and_refuter_never_disagree_on_mutants(prover, name):
         total += 1
         result = prover.prove(mutant)
         if result.verdict == "proved":  # only then can the two disagree
-            refutation, _ = refute(mutant, 5)
+            refutation, _ = refute(mutant, Budget())
             assert refutation is None, mutant.name
         killed += result.verdict != "proved"
     assert total > 0 and killed > 0
@@ -146,6 +147,6 @@ def test_algebraic_counterexamples_are_checked_with_intervals():
     # x*x = 2 has only irrational solutions: z3 answers with an algebraic number
     program = seq(havoc(x), guard(x * x == 2), guard(x > 0))
     (ob,) = generate(Theorem("sqrt2", True, program, x < Fraction(7, 5)))
-    res = discharge_one(ob, 10, keep_model=True)
+    res = discharge_one(ob, keep_model=True)
     assert res.verdict == "refuted" and res.check == "interval arithmetic"
     assert res.counterexample["x@1"].startswith("1.41421")

@@ -13,6 +13,7 @@ from certiloop.models.lang.printing import show_program
 from certiloop.models.lang.terms import (
     BOOL,
     INT,
+    REAL,
     TRUE,
     And,
     ForAll,
@@ -128,6 +129,15 @@ class Each:
     member: Node  # formula over `index`: the elements to visit
 
 
+@dataclass(frozen=True)
+class Count:
+    """Marks a loop made by `for_range`: `counter` goes up by one per iteration until it
+    reaches `limit`, which is what lets the vacuity check conclude that the loop finishes."""
+
+    counter: Node
+    limit: Node
+
+
 @dataclass(frozen=True, eq=False)
 class Loop(Program):
     """a* with an invariant annotation (None: the proof uses the postcondition)."""
@@ -136,11 +146,14 @@ class Loop(Program):
     invariant: Node | None = None
     label: str = "loop"
     each: Each | None = None  # set by foreach; not part of the semantics
+    count: Count | None = None  # set by for_range; not part of the semantics
 
     @property
     def key(self):
         inv = self.invariant.key if self.invariant is not None else None
-        return ("loop", self.body.key, inv, self.label)
+        each = None if self.each is None else (self.each.index.key, self.each.done.key, self.each.member.key)
+        count = None if self.count is None else (self.count.counter.key, self.count.limit.key)
+        return ("loop", self.body.key, inv, self.label, each, count)
 
 
 @dataclass(frozen=True, eq=False)
@@ -237,8 +250,10 @@ def ode(eqs: dict[Node, Any] | list[tuple[Node, Any]], domain: Any = TRUE,
     seen: set[str] = set()
     out = []
     for v, f in pairs:
-        if not isinstance(v, Node) or v.op != "var" or not v.sort.is_numeric:
-            raise ModelError(f"ODE left-hand side `{v}` must be a real symbol")
+        if not isinstance(v, Node) or v.op != "var" or v.sort != REAL:
+            what = f"the {v.sort} symbol" if isinstance(v, Node) and v.op == "var" else "the term"
+            raise ModelError(f"ODE left-hand side: {what} `{v}` cannot evolve continuously; "
+                             "only Real symbols can")
         if v.name in seen:
             raise ModelError(f"ODE gives {v.name}' twice; each variable needs exactly one equation")
         seen.add(v.name)
@@ -279,7 +294,8 @@ def for_range(var: Node, lo: Any, hi: Any, body: Program, invariant: Any,
     lo, hi = term(lo), term(hi)
     inv = And(lo <= var, var <= hi, formula(invariant))
     step = seq(test(var < hi), body, assign(var, var + 1))
-    return seq(assign(var, lo), loop(step, inv, label or f"for {var.name}"), test(var >= hi))
+    counted = Loop(step, inv, label or f"for {var.name}", count=Count(var, hi))
+    return seq(assign(var, lo), counted, test(var >= hi))
 
 
 def foreach(index: Node, done: Node, body: Program, invariant: Any,
@@ -298,8 +314,13 @@ def foreach(index: Node, done: Node, body: Program, invariant: Any,
         raise ModelError(f"foreach needs a symbol of an index sort, got `{index}`")
     if done.op != "var" or done.sort.domain != (index.sort,) or done.sort.range != BOOL:
         raise ModelError(f"foreach: `{done}` must be a Bool family over {index.sort}")
-    other = Var(f"{index.name}_", index.sort)
     member = where or (lambda _j: TRUE)
+    # the bound variable of the entry and exit tests: a name the user's `where` does not use
+    taken = set(free_vars(formula(member(index)))) | set(free_vars(done(index))) | {index.name}
+    suffix = 1
+    while f"{index.name}_{suffix}" in taken:
+        suffix += 1
+    other = Var(f"{index.name}_{suffix}", index.sort)
     step = seq(havoc(index), test(And(Not(done(index)), member(index))), body,
                assign(done(index), TRUE))
     body = loop(step, invariant, label or f"foreach {index.name}")

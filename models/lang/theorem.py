@@ -3,25 +3,28 @@
 from __future__ import annotations
 
 import hashlib
+import re
 from dataclasses import dataclass, field
 
 from certiloop.models.lang.printing import show, show_program
 from certiloop.models.lang.programs import (
     ODE,
     Assign,
-    Choice,
+    Havoc,
     Loop,
     Program,
-    Seq,
     Test,
+    children,
     program_symbols,
     written,
 )
 from certiloop.models.lang.terms import (
     BOOL,
     QUANTIFIERS,
+    REAL,
     ModelError,
     Node,
+    Sort,
     formula,
     free_vars,
 )
@@ -71,6 +74,19 @@ class Theorem:
         )
 
     @property
+    def canonical(self) -> str:
+        """Everything that defines the claim, as one deterministic text: the name, the
+        expected verdict, every formula and program with the sort of each symbol, the
+        invariants and differential invariants, abbreviations, constants, scenarios and
+        flags. Two theorems with the same canonical text are the same claim."""
+        return repr((
+            "certiloop-theorem/1", self.name, self.expected, self.assumptions.key, self.program.key,
+            self.guarantee.key, tuple(sorted((k, v.key) for k, v in self.abbreviations.items())),
+            tuple(c.key for c in self.constants), tuple(s.key for s in self.scenarios),
+            ("unroll", self.unroll), ("check_nonblocking", self.check_nonblocking),
+        ))
+
+    @property
     def content_hash(self) -> str:
         return hashlib.sha256(self.text.encode()).hexdigest()[:16]
 
@@ -78,94 +94,105 @@ class Theorem:
 
 # --------------------------------------------------------------------------- well-formedness
 
+IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+RESERVED_SORTS = ("Real", "Int", "Bool", "Array")
 
-def _nonzero_facts(assumptions: Node) -> set[str]:
-    """Symbols the assumptions state are nonzero by a top-level conjunct c > 0, c < 0, c != 0."""
-    out: set[str] = set()
-    conj = assumptions.args if assumptions.op == "and" else (assumptions,)
-    for c in conj:
-        if c.op != "cmp":
-            continue
-        a, b = c.args
-        zero = lambda x: x.op == "const" and x.payload == 0  # noqa: E731
-        if c.payload in (">", "<", "!=") and a.op == "var" and zero(b):
-            out.add(a.payload)
-        if c.payload in (">", "<", "!=") and b.op == "var" and zero(a):
-            out.add(b.payload)
+
+def symbol_occurrences(t: "Theorem") -> list[tuple[str, Sort, str]]:
+    """(name, sort, where) for every symbol the theorem mentions: free or bound, in its
+    formulas, programs, annotations, abbreviations, scenarios and constants."""
+    out: list[tuple[str, Sort, str]] = []
+
+    def formula_syms(n: Node, where: str) -> None:
+        if n.op == "var":
+            out.append((n.payload, n.sort, where))
+        if n.op in QUANTIFIERS:
+            out.extend((v.payload, v.sort, f"{where} (bound)") for v in n.payload)
+        if n.op in ("box", "diamond"):
+            program_syms(n.payload, where)
+        for a in n.args:
+            formula_syms(a, where)
+
+    def program_syms(p: Program, where: str) -> None:
+        if isinstance(p, (Assign, Havoc)):
+            formula_syms(p.target, where)
+        if isinstance(p, Assign):
+            formula_syms(p.value, where)
+        elif isinstance(p, Test):
+            formula_syms(p.cond, where)
+        elif isinstance(p, ODE):
+            for v, f in p.eqs:
+                formula_syms(v, where)
+                formula_syms(f, where)
+            for f in (p.domain, *p.invariants):
+                formula_syms(f, where)
+        elif isinstance(p, Loop) and p.invariant is not None:
+            formula_syms(p.invariant, where)
+        for q in children(p):
+            program_syms(q, where)
+
+    formula_syms(t.assumptions, "the assumptions")
+    program_syms(t.program, "the program")
+    formula_syms(t.guarantee, "the guarantee")
+    for name, definition in t.abbreviations.items():
+        formula_syms(definition, f"abbreviation {name}")
+    for s in t.scenarios:
+        formula_syms(s, "a scenario")
+    for c in t.constants:
+        formula_syms(c, "the constants")
     return out
 
 
-def _nonzero(d: Node, safe: set[str]) -> bool:
-    """d is a product/power of nonzero literals and parameters the assumptions bound away from 0."""
-    if d.op == "const":
-        return d.payload != 0
-    if d.op == "var":
-        return d.payload in safe
-    if d.op in ("*", "neg", "^", "/"):
-        return all(_nonzero(a, safe) for a in d.args)
-    return False
+def _check_names_and_sorts(t: "Theorem", where: str) -> None:
+    """One symbol, one sort; names are identifiers, so no name can look like the ones the
+    prover makes up (those all contain '@')."""
+    seen: dict[str, tuple[Sort, str]] = {}
+    for name, sort, place in symbol_occurrences(t):
+        if not IDENTIFIER.fullmatch(name):
+            raise ModelError(f"{where}: symbol name {name!r} in {place} is not an identifier "
+                             "(letters, digits and _, not starting with a digit); '@', '[', '!' "
+                             "and '#' are reserved for names the prover makes up")
+        for s in (sort, *sort.domain, *((sort.range,) if sort.range is not None else ())):
+            if not s.is_numeric and s not in (BOOL,) and s.name != "Array":
+                if not IDENTIFIER.fullmatch(s.name) or s.name in RESERVED_SORTS:
+                    raise ModelError(f"{where}: index sort name {s.name!r} must be an identifier "
+                                     "other than Real, Int, Bool and Array")
+        if name in seen and seen[name][0] != sort:
+            raise ModelError(f"{where}: symbol `{name}` is used with two sorts: {seen[name][0]} in "
+                             f"{seen[name][1]} and {sort} in {place}; give each its own name")
+        seen.setdefault(name, (sort, place))
+    for abbrev in t.abbreviations:
+        if not IDENTIFIER.fullmatch(abbrev):
+            raise ModelError(f"{where}: abbreviation name {abbrev!r} is not an identifier")
 
 
-def _check_divisions(n: Node, safe: set[str], where: str) -> None:
-    if n.op == "/":
-        d = n.args[1]
-        if not _nonzero(d, safe):
-            raise ModelError(
-                f"{where}: division by `{show(d)}`, which is not a constant known to be nonzero; "
-                "divide by a parameter the assumptions bound away from 0, or write "
-                "`tmp := *; ?tmp*d = 1` as the seed does"
-            )
-    if n.op in ("box", "diamond"):
-        _check_program(n.payload, safe, where)
-    for a in n.args:
-        _check_divisions(a, safe, where)
-
-
-def _check_program(p: Program, safe: set[str], where: str) -> None:
-    def visit(q: Program) -> None:
-        if isinstance(q, Assign):
-            _check_divisions(q.value, safe, f"{where}: `{show_program(q)}`")
-        elif isinstance(q, Test):
-            _check_divisions(q.cond, safe, f"{where}: `{show_program(q)}`")
-        elif isinstance(q, ODE):
-            for v, f in q.eqs:
-                _check_divisions(f, safe, f"{where}: ODE {v.payload}'")
-            _check_divisions(q.domain, safe, f"{where}: ODE domain")
-        elif isinstance(q, Seq):
-            for r in q.parts:
-                visit(r)
-        elif isinstance(q, Choice):
-            for r in q.alternatives:
-                visit(r)
-        elif isinstance(q, Loop):
-            visit(q.body)
-            if q.invariant is not None:
-                _check_divisions(q.invariant, safe, f"{where}: invariant of {q.label}")
-
-    visit(p)
+def _check_odes(p: Program, where: str) -> None:
+    if isinstance(p, ODE):
+        for v, _ in p.eqs:
+            if v.sort != REAL:
+                raise ModelError(f"{where}: `{v.payload}` of sort {v.sort} cannot evolve in an ODE; "
+                                 "only Real symbols change continuously")
+    for q in children(p):
+        _check_odes(q, where)
 
 
 def check_well_formed(t: Theorem) -> None:
     where = f"theorem {t.name}"
+    if not isinstance(t.name, str) or not t.name:
+        raise ModelError("a theorem needs a non-empty name")
     if not isinstance(t.program, Program):
         raise ModelError(f"{where}: program is not a hybrid program")
     for nm, val in t.abbreviations.items():
         if not isinstance(val, Node) or val.sort == BOOL:
             raise ModelError(f"{where}: abbreviation {nm} must be a term")
-    declared = dict(free_vars(t.assumptions))
-    declared.update(free_vars(t.guarantee))
+    if not isinstance(t.unroll, int) or isinstance(t.unroll, bool) or t.unroll < 1:
+        raise ModelError(f"{where}: unroll must be a positive integer, got {t.unroll!r}")
+    for c in t.constants:
+        if not isinstance(c, Node) or c.op != "var":
+            raise ModelError(f"{where}: constants must be symbols, got `{c}`")
+    _check_names_and_sorts(t, where)
+    _check_odes(t.program, where)
     prog_syms = program_symbols(t.program)
-    declared.update(prog_syms)
-    for name, v in list(declared.items()):
-        if "@" in name:
-            raise ModelError(f"{where}: symbol name {name!r} may not contain '@'")
-        for other in (t.assumptions, t.guarantee):
-            o = free_vars(other).get(name)
-            if o is not None and o.sort != v.sort:
-                raise ModelError(f"{where}: symbol `{name}` used with sorts {o.sort} and {v.sort}")
-    for name, v in prog_syms.items():
-        if name in declared and declared[name].sort != v.sort:
-            raise ModelError(f"{where}: symbol `{name}` used with sorts {declared[name].sort} and {v.sort}")
     # An assumption names a *constant* only if the program never writes it; a guarantee
     # about a symbol nobody mentions anywhere else is almost always a typo.
     mentioned = set(free_vars(t.assumptions)) | set(prog_syms) | _written_in_modalities(t.guarantee)
@@ -178,11 +205,8 @@ def check_well_formed(t: Theorem) -> None:
     for c in t.constants:
         if c.payload in writes:
             raise ModelError(f"{where}: `{c.payload}` is declared constant but the program assigns to it")
-    safe = _nonzero_facts(t.assumptions) - set(writes)
-    _check_program(t.program, safe, where)
-    _check_divisions(t.assumptions, safe, f"{where}: assumptions")
-    _check_divisions(t.guarantee, safe, f"{where}: guarantee")
     _check_quantifier_sorts(t.guarantee, where)
+    _check_quantifier_sorts(t.assumptions, where)
 
 
 def _written_in_modalities(n: Node) -> set[str]:

@@ -93,14 +93,14 @@ class GateOptions:
 
 
 def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntry:
-    from certiloop.falsify.replay import replay_refutation
     from certiloop.falsify.search import Options, falsify
 
     start = time.perf_counter()
     result = prover.prove(theorem)
     replay = None
-    if result.refutation is not None:
-        replay = replay_refutation(theorem, result.refutation).to_json()
+    if result.run is not None:  # the engine's independent checks of its run
+        replay = {"violated": result.run.replayed and result.run.flows_confirmed,
+                  "message": result.run.detail}
     found = falsify(theorem, Options(max_examples=opts.falsify_examples, seed=opts.seed, database=None,
                                      shrink=False))
     summary = {"verdict": found.verdict, "examples": found.examples, "seconds": round(found.seconds, 3),
@@ -116,7 +116,8 @@ def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=N
              on_model=None) -> list[GateEntry]:
     entries = []
     for theorem in theorems:
-        key = cache.key("gate", f"{theorem.text}\n{opts.text()}") if cache else None
+        key = (cache.key("gate", f"{theorem.canonical}\n{opts.text()}/rlimit={prover.budget.rlimit}")
+               if cache else None)
         hit = cache.get(key) if cache else None
         if hit is not None:
             entry = GateEntry.from_json(hit)

@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INCONSISTENT = 0, 1, 2, 3
 
 
 class BadInput(Exception):
@@ -40,8 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="library name (sbs.ctrl1) or path/to/file.py:theorem")
     prove.add_argument("--json", metavar="F", help="write results as JSON to F ('-' for stdout)")
     prove.add_argument("--smtlib", metavar="DIR", help="write every obligation as an SMT-LIB 2 file")
-    prove.add_argument("--timeout", metavar="S", type=float, default=30.0,
-                       help="seconds per obligation before it is 'unknown' (default 30)")
+    _budget_flags(prove)
     prove.add_argument("--jobs", metavar="N", type=int, default=None,
                        help="worker processes (default: number of cores)")
     prove.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
@@ -90,8 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
                       help="write JUnit XML to F (a test case per model and obligation)")
     gate.add_argument("--markdown", metavar="F",
                       help="append a Markdown summary to F (e.g. $GITHUB_STEP_SUMMARY)")
-    gate.add_argument("--timeout", metavar="S", type=float, default=60.0,
-                      help="seconds per obligation (default 60)")
+    _budget_flags(gate)
     gate.add_argument("--jobs", metavar="N", type=int, default=None,
                       help="worker processes (default: number of cores)")
     gate.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
@@ -102,6 +100,17 @@ def build_parser() -> argparse.ArgumentParser:
                       "or $CERTILOOP_CACHE)")
     gate.add_argument("--no-cache", action="store_true", help="prove everything afresh")
     return parser
+
+
+def _budget_flags(parser: argparse.ArgumentParser) -> None:
+    from certiloop.proofs.engine.budget import DEFAULT_RLIMIT
+
+    parser.add_argument("--rlimit", metavar="N", type=int, default=DEFAULT_RLIMIT,
+                        help=f"z3 resource units per obligation before it is 'unknown' (default "
+                        f"{DEFAULT_RLIMIT:,}); verdicts depend on this, never on the clock")
+    parser.add_argument("--timeout", metavar="S", type=float, default=600.0,
+                        help="wall-clock safety net per solver call (default 600 s); reaching it "
+                        "gives 'unknown' and says the machine may be overloaded")
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -176,6 +185,8 @@ def cmd_list() -> int:
 def _check_common(args: argparse.Namespace) -> None:
     if args.timeout <= 0:
         raise BadInput(f"--timeout must be positive, got {args.timeout:g}")
+    if args.rlimit < 1:
+        raise BadInput(f"--rlimit must be at least 1, got {args.rlimit}")
     if args.jobs is not None and args.jobs < 1:
         raise BadInput(f"--jobs must be at least 1, got {args.jobs}")
 
@@ -199,7 +210,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
     opts = GateOptions(falsify_examples=args.falsify_examples)
     out, err = console(), Console(stderr=True)
     start = time.perf_counter()
-    with Prover(jobs=args.jobs, timeout_s=args.timeout, executor=args.executor) as prover:
+    with Prover(jobs=args.jobs, budget=_budget(args), executor=args.executor) as prover:
         if err.is_terminal:
             with err.status("gate") as status:
                 entries = run_gate(theorems, prover, opts, cache,
@@ -237,6 +248,12 @@ def cmd_gate(args: argparse.Namespace) -> int:
     return EXIT_OK if not failed else EXIT_FAILED
 
 
+def _budget(args: argparse.Namespace):
+    from certiloop.proofs.engine.budget import Budget
+
+    return Budget(rlimit=args.rlimit, wall_s=args.timeout)
+
+
 def cmd_prove(args: argparse.Namespace) -> int:
     _check_common(args)
     from certiloop.proofs.cli.loading import load
@@ -252,7 +269,7 @@ def cmd_prove(args: argparse.Namespace) -> int:
     out = console(stderr=args.json == "-")
     err = Console(stderr=True)
     results = []
-    with Prover(jobs=args.jobs, timeout_s=args.timeout, executor=args.executor) as prover:
+    with Prover(jobs=args.jobs, budget=_budget(args), executor=args.executor) as prover:
         for theorem in theorems:
             smt_dir = Path(args.smtlib) if args.smtlib else None
             if err.is_terminal:
@@ -265,8 +282,6 @@ def cmd_prove(args: argparse.Namespace) -> int:
             else:
                 result = prover.prove(theorem, smtlib_dir=smt_dir)
             show_result(out, result, verbose=args.verbose)
-            if result.refutation is not None:
-                result.extra["replay"] = _replay(out, theorem, result.refutation)
             results.append(result)
     if args.json:
         payload = results[0].to_json() if len(results) == 1 else [r.to_json() for r in results]
@@ -275,21 +290,15 @@ def cmd_prove(args: argparse.Namespace) -> int:
             print(text)
         else:
             Path(args.json).write_text(text + "\n")
-    all_proved = all(o.verdict == "proved" for r in results for o in r.obligations + (r.nonblocking or []))
+    if any(r.inconsistent for r in results):
+        return EXIT_INCONSISTENT
+    for r in results:
+        if r.ill_defined:
+            print(f"certiloop: error: {r.model} is {r.reason}", file=sys.stderr)
+    if any(r.ill_defined for r in results):
+        return EXIT_BAD_INPUT
+    all_proved = all(r.verdict == "proved" and r.nonblocking_verdict in (None, "proved") for r in results)
     return EXIT_OK if all_proved else EXIT_FAILED
-
-
-def _replay(out, theorem, refutation) -> dict:
-    """Replay a prover counterexample in the interpreter; a failure is a certiloop bug."""
-    from certiloop.falsify.replay import replay_refutation
-
-    outcome = replay_refutation(theorem, refutation)
-    if outcome.violated:
-        out.print(f"  interpreter replay: {outcome.message}", highlight=False, markup=False)
-    else:
-        out.print(f"  [bold red]BUG: the prover's counterexample does not replay[/] — {outcome.message}. "
-                  "Please report this to the certiloop developers.", highlight=False)
-    return outcome.to_json()
 
 
 def cmd_extract(args: argparse.Namespace) -> int:

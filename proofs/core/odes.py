@@ -20,44 +20,64 @@ from certiloop.models.lang.terms import (
     Real,
     cmp,
     const,
-    free_vars,
     substitute,
 )
 from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
 
+_SOLUTIONS: dict[tuple, dict[str, Node] | None] = {}
+
 
 def polynomial_solution(ode: ODE, s: Node) -> dict[str, Node] | None:
-    """x_i(s) for every ODE variable if the system's solution is polynomial in time.
+    """x_i(s) for every ODE variable if the system's solution is polynomial in time, else None.
 
     Works for the triangular (nilpotent) systems the seeds use, e.g.
     p' = G*f*k, f' = fp, t' = 1: repeatedly integrate an equation whose right-hand side
-    only mentions already-solved variables. Returns None when the system is not of that
-    shape (e.g. x' = y, y' = -x, or p' = G*p/D*f).
+    only mentions already-solved variables (substituted all at once, never one after the
+    other). The result is used only after `check_solution` has differentiated it back: its
+    derivative must equal the right-hand side along it, and at s = 0 it must be the start.
+    Returns None for systems of another shape (x' = y, y' = -x; p' = G*p/D*f).
     """
+    key = (ode.key, s.key)
+    if key not in _SOLUTIONS:
+        _SOLUTIONS[key] = _solve(ode, s)
+    return _SOLUTIONS[key]
+
+
+def _solve(ode: ODE, s: Node) -> dict[str, Node] | None:
     table = SympyTable()
     ssym = table.symbol(s)
-    tau = sympy.Symbol("tau_int", real=True)
-    var_of = {v.name: v for v in ode.variables}
-    pending = {v.name: (v, f) for v, f in ode.eqs}
+    start = {v.name: table.symbol(v) for v in ode.variables}  # a variable's value at s = 0
+    rhs = {v.name: to_sympy(f, table) for v, f in ode.eqs}
+    if ssym in set().union(*(e.free_symbols for e in rhs.values())):
+        return None  # the flow's own clock symbol cannot appear in the model
     solved: dict[str, sympy.Expr] = {}
+    pending = [v.name for v in ode.variables]  # the model's order: deterministic
     while pending:
-        progress = False
-        for name, (v, f) in list(pending.items()):
-            deps = set(free_vars(f)) & set(var_of)
-            if name in deps or not deps <= set(solved):
-                continue
-            rhs = to_sympy(f, table)
-            rhs = rhs.subs({table.symbol(var_of[d]): solved[d] for d in deps})
-            rhs_t = rhs.subs(ssym, tau)
-            if not rhs_t.is_polynomial(tau):
+        ready = [n for n in pending
+                 if not (rhs[n].free_symbols & {start[m] for m in pending})]
+        if not ready:
+            return None  # a cycle (x' = y, y' = x) or self-dependence (x' = x)
+        for name in ready:
+            along = rhs[name].xreplace({start[m]: solved[m] for m in solved})  # simultaneous
+            if not along.is_polynomial(ssym):
                 return None
-            x0 = table.symbol(v)
-            solved[name] = sympy.expand(x0 + sympy.integrate(rhs_t, (tau, 0, ssym)))
-            del pending[name]
-            progress = True
-        if not progress:
-            return None
+            solved[name] = sympy.expand(start[name] + sympy.integrate(along, (ssym, 0, ssym)))
+            pending.remove(name)
+    if not check_solution(rhs, start, solved, ssym):
+        raise AssertionError(f"certiloop bug: the solution of {ode} does not differentiate back")
     return {name: from_sympy(expr, table) for name, expr in solved.items()}
+
+
+def check_solution(rhs: dict, start: dict, solution: dict, s) -> bool:
+    """The independent check of a closed form: d/ds x_i(s) = f_i(x(s)) identically, and
+    x_i(0) = x_i, for every variable, decided by exact rational-function arithmetic."""
+    at_solution = {start[n]: solution[n] for n in solution}
+    for name, x in solution.items():
+        if sympy.cancel(sympy.diff(x, s) - rhs[name].xreplace(at_solution)) != 0:
+            return False
+        if sympy.cancel(x.xreplace({s: 0}) - start[name]) != 0:
+            return False
+    return set(solution) == set(rhs)
 
 
 def lie_derivative(f: Node, ode: ODE) -> Node:

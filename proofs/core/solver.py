@@ -138,34 +138,54 @@ class SolverAnswer:
     model: dict[str, Any] | None = None
     smtlib: str = ""
     model_falsifies: bool | None = None  # z3's own evaluation of the formula in its model
+    spent: int = 0  # z3 resource units (rlimit count) the check used
 
 
-def check_valid(formula: Node, timeout_s: float, want_smtlib: bool = False) -> SolverAnswer:
-    """Ask z3 whether `formula` is valid by checking its negation in a fresh solver."""
+def check_valid(formula: Node, rlimit: int, wall_s: float = 600.0, want_smtlib: bool = False) -> SolverAnswer:
+    """Ask z3 whether `formula` is valid by checking its negation in a fresh context.
+
+    `rlimit` (z3 resource units) decides when to give up, so the answer does not depend on
+    the machine or its load; `wall_s` is only a safety net against a hung solver, and an
+    answer cut off by it says so."""
     tr = Z3Translator()
     goal = z3.Not(tr(formula))
     if _quantifier_free(formula) and _pure_real(tr, formula):
         solver = z3.SolverFor("QF_NRA", ctx=tr.ctx)
     else:
         solver = z3.Solver(ctx=tr.ctx)
-    solver.set("timeout", max(1, int(timeout_s * 1000)))
+    solver.set("rlimit", max(1, int(rlimit)))
+    solver.set("timeout", max(1, int(wall_s * 1000)))
     solver.add(goal)
     smt = solver.to_smt2() if want_smtlib else ""
     try:
         result = solver.check()
     except z3.Z3Exception as exc:  # z3 crashed on this input
         return SolverAnswer("unknown", f"z3 error: {exc}", smtlib=smt)
+    spent = _spent(solver)
     if result == z3.unsat:
-        return SolverAnswer("unsat", smtlib=smt)
+        return SolverAnswer("unsat", smtlib=smt, spent=spent)
     if result == z3.sat:
         model = solver.model()
         evaluated = model.eval(tr(formula), model_completion=True)
         falsifies = True if z3.is_false(evaluated) else False if z3.is_true(evaluated) else None
-        return SolverAnswer("sat", model=read_model(model, tr), smtlib=smt, model_falsifies=falsifies)
+        return SolverAnswer("sat", model=read_model(model, tr), smtlib=smt, model_falsifies=falsifies,
+                            spent=spent)
     reason = solver.reason_unknown()
-    if reason in ("timeout", "canceled"):
-        reason = f"timeout after {timeout_s:g} s"
-    return SolverAnswer("unknown", f"z3 gave up: {reason}", smtlib=smt)
+    if "resource limit" in reason or spent >= rlimit:
+        reason = f"resource budget spent ({int(rlimit):,} z3 units)"
+    elif reason in ("timeout", "canceled"):
+        reason = f"wall-clock safety net reached after {wall_s:g} s (the machine may be overloaded)"
+    else:
+        reason = f"z3 gave up: {reason}"
+    return SolverAnswer("unknown", reason, smtlib=smt, spent=spent)
+
+
+def _spent(solver) -> int:
+    stats = solver.statistics()
+    for key in stats.keys():
+        if key == "rlimit count":
+            return int(stats.get_key_value(key))
+    return 0
 
 
 def smtlib_text(formula: Node, name: str = "") -> str:

@@ -25,6 +25,7 @@ from typing import Callable
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import (
+    BOOL,
     REAL,
     And,
     Implies,
@@ -36,6 +37,7 @@ from certiloop.models.lang.terms import (
 )
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.odes import dI_condition, holds_along, polynomial_solution
+from certiloop.proofs.core.wd import defined, has_division
 from certiloop.proofs.core.wp import expand_modalities, has_modality
 
 
@@ -48,6 +50,9 @@ class Obligation:
     formula: Node
     model: str = ""
     abbreviations: dict[str, Node] = field(default_factory=dict, compare=False)
+    kind: str = "safety"  # safety | defined (no division by zero) | vacuity (the step has a run)
+    # (how, formula): formulas that imply this one by construction, worth trying first
+    stronger: tuple[tuple[str, Node], ...] = field(default=(), compare=False)
 
     @property
     def text(self) -> str:
@@ -109,17 +114,32 @@ class VCGen:
     # ---- entry point
     def run(self) -> list[Obligation]:
         t = self.theorem
-        start = State((expand_modalities(t.assumptions, self.names),), {}, ())
-        self.exec(t.program, start, lambda st: self.emit(st, t.guarantee, "postcondition"))
+        assumptions = expand_modalities(t.assumptions, self.names)
+        self.require_defined(State((), {}, ()), "the assumptions", assumptions)
+        start = State((assumptions,), {}, ())
+        self.exec(t.program, start, self.postcondition)
         return self.obligations
 
-    def emit(self, st: State, goal: Node, what: str) -> None:
+    def postcondition(self, st: State) -> None:
+        self.require_defined(st, "the guarantee", self.theorem.guarantee)
+        self.emit(st, self.theorem.guarantee, "postcondition")
+
+    def emit(self, st: State, goal: Node, what: str, kind: str = "safety") -> None:
         goal = st.value(expand_modalities(goal, self.names, positive=True))
         facts = st.facts
         path = " / ".join(st.path + (what,))
         oid = f"o{len(self.obligations) + 1}"
         self.obligations.append(Obligation(oid, path, Implies(And(*facts), goal), self.theorem.name,
-                                           self.theorem.abbreviations))
+                                           self.theorem.abbreviations, kind))
+
+    def require_defined(self, st: State, what: str, *parts: Node, annotation: bool = False) -> None:
+        """An obligation that the terms and formulas `parts`, evaluated in this state, never
+        divide by zero. For the claim's own parts that makes the claim meaningful (kind
+        `defined`); for an annotation (an invariant) it is one more thing the proof needs."""
+        expanded = [expand_modalities(f, self.names) if f.sort == BOOL else f for f in parts]
+        if any(has_division(f) for f in expanded):
+            self.emit(st, And(*(defined(f) for f in expanded)), f"well-defined: {what} (no division by 0)",
+                      "safety" if annotation else "defined")
 
     def havoc(self, st: State, variables: dict[str, Node], why: str) -> State:
         self.names.count += 1
@@ -130,13 +150,16 @@ class VCGen:
     # ---- the rules
     def exec(self, p: Program, st: State, k: Callable[[State], None]) -> None:
         if isinstance(p, Assign):
+            self.require_defined(st, f"`{p}`", *_indices(p.target), p.value)
             k(st.bind(self._write(st, p.target, st.value(p.value))))
         elif isinstance(p, Havoc):
+            self.require_defined(st, f"`{p}`", *_indices(p.target))
             k(st.bind(self._write(st, p.target, self.names.fresh(_root(p.target).payload,
                                                                  p.target.sort, "chosen"))))
         elif isinstance(p, Test):
             if has_modality(p.cond):
                 raise ModelError(f"test `?{p.cond}` must be first-order (no [.] or <.> inside)")
+            self.require_defined(st, f"`{p}`", p.cond)
             k(st.assume(st.value(p.cond)))
         elif isinstance(p, Seq):
             self._seq(p.parts, st, k)
@@ -167,14 +190,39 @@ class VCGen:
         inv = p.invariant
         if inv is None:
             inv = self.theorem.guarantee
-        self.emit(st.at(f"{p.label} init"), inv, "invariant holds initially")
+        init = st.at(f"{p.label} init")
+        self.require_defined(init, "the invariant", inv, annotation=True)
+        self.emit(init, inv, "invariant holds initially")
         inside = self.havoc(st, written(p.body), f"in {p.label}")
         inside = inside.assume(inside.value(expand_modalities(inv, self.names)))
-        self.exec(p.body, inside.at(f"{p.label} step"),
-                  lambda s: self.emit(s, inv, "invariant preserved"))
+
+        def preserved(s: State) -> None:
+            self.require_defined(s, "the invariant", inv, annotation=True)
+            self.emit(s, inv, "invariant preserved")
+
+        self.exec(p.body, inside.at(f"{p.label} step"), preserved)
         k(inside.at(f"{p.label} use"))
 
+    def _ode_region(self, p: ODE, st: State) -> None:
+        """Wherever the flow may go (any values of its variables inside the domain), its
+        right-hand sides are defined, and the domain everywhere; the differential invariants
+        likewise (each may lean on the domain and the earlier ones)."""
+        if not any(has_division(f) for f in (p.domain, *(f for _, f in p.eqs), *p.invariants)):
+            return
+        anywhere = self.havoc(st, {v.payload: v for v in p.variables}, "anywhere the ODE may go").at("ODE")
+        flow = And(defined(p.domain), Implies(p.domain, And(*(defined(f) for _, f in p.eqs))))
+        if flow.op != "true":
+            self.emit(anywhere, flow, "well-defined: right-hand side and domain (no division by 0)",
+                      "defined")
+        known, cuts = [p.domain], []
+        for inv in p.invariants:
+            cuts.append(Implies(And(*known), defined(inv)))
+            known.append(inv)
+        if And(*cuts).op != "true":
+            self.emit(anywhere, And(*cuts), "well-defined: differential invariants (no division by 0)")
+
     def _ode(self, p: ODE, st: State, k: Callable[[State], None]) -> None:
+        self._ode_region(p, st)
         if p.invariants:
             self._ode_cuts(p, st, k)
             return

@@ -5,7 +5,10 @@ refuted  : z3 produced a state, and that state, substituted into the obligation,
            false when evaluated exactly (rationals) or with rational intervals (algebraic
            numbers); only for quantified obligations do we fall back to z3's own evaluation
            of its model, and we say so.
-unknown  : anything else — timeouts, solver give-ups, a model that does not re-check.
+unknown  : anything else — budgets spent, solver give-ups, a model that does not re-check.
+
+`decide_theorem` is the one place a theorem's verdict is made, from its obligations'
+verdicts and the evidence of a violating run.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ class ObligationResult:
     verdict: str  # proved | refuted | unknown
     seconds: float
     backend: str = "z3"
+    kind: str = "safety"  # as the obligation's: safety | defined | vacuity
     reason: str = ""
     counterexample: dict[str, str] | None = None
     check: str = ""  # how a counterexample was confirmed
@@ -78,3 +82,60 @@ def judge(ob_id: str, path: str, formula, answer: SolverAnswer, seconds: float) 
                                 check="z3 model evaluation (quantified obligation)", raw_model=model)
     return ObligationResult(ob_id, path, "unknown", seconds, counterexample=cex,
                             reason="z3 reported a counterexample that could not be confirmed")
+
+
+# --------------------------------------------------------------------------- theorems
+
+
+@dataclass
+class RunEvidence:
+    """What is known about a violating run the refuter found."""
+
+    rechecked: bool  # the run falsifies the loop-unrolled claim in exact arithmetic
+    replayed: bool  # the interpreter, run independently from the same start, violates the guarantee
+    flows_confirmed: bool  # every closed-form flow agrees with a numerical integration
+    detail: str = ""
+
+    @property
+    def confirmed(self) -> bool:
+        return self.rechecked and self.replayed and self.flows_confirmed
+
+
+@dataclass
+class Decision:
+    verdict: str  # proved | refuted | unknown
+    reason: str = ""
+    ill_defined: bool = False  # a division in the claim itself can be by zero (a counterexample shows it)
+    inconsistent: bool = False  # every obligation proved, yet a confirmed violating run: a certiloop bug
+
+
+def decide_theorem(obligations: list[ObligationResult], run: RunEvidence | None,
+                   no_run_why: str = "") -> Decision:
+    """proved iff every obligation is proved; refuted iff a violating run was found, re-checked,
+    replayed and its flows confirmed (and the claim is well-defined); unknown otherwise."""
+    failed = [r for r in obligations if r.verdict != "proved"]
+    confirmed = run is not None and run.confirmed
+    if not failed:
+        if confirmed:
+            return Decision("unknown", "INTERNAL INCONSISTENCY: every obligation is proved, yet a violating "
+                            f"run was found and confirmed ({run.detail}); please report this certiloop bug",
+                            inconsistent=True)
+        return Decision("proved")
+    undefined = [r for r in failed if r.kind == "defined"]
+    if undefined:
+        first = undefined[0]
+        shown = ", ".join(f"{k} = {v}" for k, v in (first.counterexample or {}).items())
+        ill = first.verdict == "refuted"
+        how = (f"it can be by zero{f' ({shown})' if shown else ''}" if ill
+               else f"it is not shown nonzero ({first.reason})")
+        return Decision("unknown", f"ill-defined: {first.path}: a division in the claim itself, and {how}",
+                        ill_defined=ill)
+    if confirmed:
+        return Decision("refuted", "a run that violates the guarantee was found, re-checked exactly, "
+                        "replayed and its flows confirmed")
+    first = failed[0]
+    why = f"{first.path}: {first.verdict}{': ' + first.reason if first.reason else ''}"
+    if run is not None:
+        return Decision("unknown", f"{len(failed)} obligation(s) not proved (first: {why}); a violating run "
+                        f"was found but could not be confirmed: {run.detail}")
+    return Decision("unknown", f"{len(failed)} obligation(s) not proved (first: {why}); {no_run_why}")

@@ -1,9 +1,12 @@
-"""On-disk cache of gate results, keyed by content hash and tool versions.
+"""On-disk cache of gate results, keyed by the whole claim and the prover that judged it.
 
-An entry is trusted only if it parses, names the key it is stored under, was written by
-the same certiloop, z3 and sympy versions, and its checksum matches its payload; anything
-else (a corrupted file, an entry from another version or another project) is ignored and
-the work is done again. The folder is `.certiloop/cache` unless --cache or the
+The key covers the theorem's canonical serialisation (sorts, annotations, invariants,
+constants, abbreviations, expected verdict, flags, name), the gate's options, and a
+fingerprint of certiloop's own source plus the z3 and sympy versions, so editing the prover
+invalidates every entry. An entry is trusted only if it parses, names the key it is stored
+under, was written under the same fingerprint, and its checksum matches its payload;
+anything else (a corrupted file, an entry from another version or another project) is
+ignored and the work is done again. The folder is `.certiloop/cache` unless --cache or the
 CERTILOOP_CACHE environment variable says otherwise; it is safe to delete.
 """
 
@@ -18,6 +21,23 @@ from typing import Any
 DEFAULT = Path(".certiloop") / "cache"
 
 
+def source_fingerprint() -> str:
+    """A hash of every certiloop source file (path and bytes), in a fixed order."""
+    import certiloop.falsify
+    import certiloop.kernel
+    import certiloop.models
+    import certiloop.proofs
+
+    digest = hashlib.sha256()
+    for package in (certiloop.models, certiloop.proofs, certiloop.falsify, certiloop.kernel):
+        for folder in sorted(package.__path__):
+            root = Path(folder)
+            for path in sorted(root.rglob("*.py")):
+                digest.update(f"{package.__name__}/{path.relative_to(root).as_posix()}\n".encode())
+                digest.update(path.read_bytes())
+    return digest.hexdigest()[:24]
+
+
 def versions() -> dict[str, str]:
     from importlib.metadata import PackageNotFoundError, version
 
@@ -28,7 +48,8 @@ def versions() -> dict[str, str]:
         own = version("certiloop")
     except PackageNotFoundError:  # running from a source tree
         own = "source"
-    return {"certiloop": own, "z3": z3.get_version_string(), "sympy": sympy.__version__}
+    return {"certiloop": own, "source": source_fingerprint(), "z3": z3.get_version_string(),
+            "sympy": sympy.__version__}
 
 
 def _digest(payload: Any) -> str:

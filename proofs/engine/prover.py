@@ -10,15 +10,14 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable
 
-from certiloop.models.lang.terms import INT, ModelError
+from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.arith.abstraction import abbreviation_instances, abstract, congruences, lower_term
-from certiloop.proofs.core.instantiate import instantiate
-from certiloop.proofs.core.lowering import lower
-from certiloop.proofs.core.solver import check_valid, smtlib_text
+from certiloop.proofs.core.solver import smtlib_text
 from certiloop.proofs.core.vacuity import nonblocking_obligations
 from certiloop.proofs.core.vcgen import Obligation, generate
-from certiloop.proofs.core.verdicts import ObligationResult, judge
+from certiloop.proofs.core.verdicts import ObligationResult, RunEvidence, decide_theorem
+from certiloop.proofs.engine.budget import QUICK_SHARE, Budget
+from certiloop.proofs.engine.discharge import discharge_one
 
 
 @dataclass
@@ -31,6 +30,9 @@ class TheoremResult:
     reason: str = ""
     refutation: Any = None  # refute.Refutation
     extra: dict[str, Any] = field(default_factory=dict)
+    run: RunEvidence | None = None  # how the refutation's run was confirmed
+    ill_defined: bool = False  # a division in the claim itself can be by zero
+    inconsistent: bool = False  # proofs and a confirmed run disagree: a certiloop bug
     # vacuity (theorems with check_nonblocking, once proved): the step always has a run
     nonblocking: list[ObligationResult] | None = None
 
@@ -52,95 +54,17 @@ class TheoremResult:
             "seconds": round(self.seconds, 4),
             "reason": self.reason,
             "counterexample": self.refutation.to_json() if self.refutation else None,
+            "run_check": None if self.run is None else {
+                "rechecked": self.run.rechecked, "replayed": self.run.replayed,
+                "flows_confirmed": self.run.flows_confirmed, "detail": self.run.detail},
+            "ill_defined": self.ill_defined,
+            "inconsistent": self.inconsistent,
             "obligations": [o.to_json() for o in self.obligations],
             **({"nonblocking": {"verdict": self.nonblocking_verdict,
                                 "obligations": [o.to_json() for o in self.nonblocking]}}
                if self.nonblocking is not None else {}),
             **self.extra,
         }
-
-
-PROJECTED_CEX_SECONDS = 2.0
-
-
-QUICK_SECONDS = 0.5  # per check once a violating run is known: the report, not the verdict
-
-
-def discharge_one(ob: Obligation, timeout_s: float, keep_model: bool = False) -> ObligationResult:
-    """Prove one obligation: first in abstracted form (if that applies), then as stated.
-
-    The abstracted form is only trusted for `proved` (a generalisation); a counterexample
-    always comes from the obligation as stated. keep_model keeps the raw solver model,
-    which may hold live z3 handles and so cannot leave this process."""
-    start = time.perf_counter()
-    budget = timeout_s  # shrinks once a projected form has a counterexample
-    projected_cex = False
-
-    def left() -> float:  # timeout_s is for the whole obligation, all its forms together
-        return max(0.05, min(budget, start + timeout_s - time.perf_counter()))
-
-    for backend, weaker in _weakenings(ob):
-        if projected_cex and budget <= QUICK_SECONDS and "abstracted" not in backend:
-            continue  # quick mode: raw forms of a projected-false obligation never finish in time
-        answer = check_valid(weaker, left())
-        if answer.status == "unsat":
-            res = judge(ob.id, ob.path, weaker, answer, time.perf_counter() - start)
-            res.backend = backend
-            return res
-        if answer.status == "sat" and "abstracted" in backend:
-            # likely false as stated too: the raw forms below rarely decide it, so keep them short
-            projected_cex = True
-            budget = min(budget, PROJECTED_CEX_SECONDS)
-    if projected_cex and budget <= QUICK_SECONDS:
-        return ObligationResult(ob.id, ob.path, "unknown", time.perf_counter() - start,
-                                reason="not proved: its projected form (abstracted) has a counterexample")
-    answer = check_valid(ob.formula, left())
-    res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
-    if res.verdict == "unknown" and projected_cex:
-        res.reason = (f"{res.reason}; its projected form (abstracted) has a counterexample, "
-                      "so it is probably false")
-    if not keep_model:
-        res.raw_model = None
-    return res
-
-
-def _weakenings(ob: Obligation):
-    """Formulas that imply the obligation and are easier for z3: instantiated quantifiers,
-    then projected (abstracted) arithmetic. Only an `unsat` (proved) answer is used."""
-    if _quantifies_integers(ob.formula):
-        return  # z3's own quantifier engine handles integer-indexed arrays (builtDR) best
-    yield from _weakened(ob, wide=False)
-    if instantiate(ob.formula) is not None:
-        yield from _weakened(ob, wide=True)
-
-
-def _quantifies_integers(n) -> bool:
-    if n.op in ("forall", "exists") and any(v.sort == INT for v in n.payload):
-        return True
-    return any(_quantifies_integers(a) for a in n.args)
-
-
-def _weakened(ob: Obligation, wide: bool):
-    base, steps = ob.formula, []
-    instantiated = instantiate(base, wide)
-    if instantiated is not None:
-        base, steps = instantiated, ["instantiated more" if wide else "instantiated"]
-    lowered = lower(base) if _has_arrays(base) else None
-    instances = abbreviation_instances(ob.abbreviations, base)
-    index_term = lambda t: t  # noqa: E731
-    if lowered is not None:
-        base, steps = lowered, steps + ["lowered"]
-        instances = [i.with_definition(lower_term(i.definition)) for i in instances]
-        index_term = lower_term
-    abstracted = abstract(base, instances, congruences(instances, index_term))
-    if abstracted is not None:
-        yield f"z3 ({', '.join(steps + ['abstracted'])})", abstracted
-    if steps:
-        yield f"z3 ({', '.join(steps)})", base
-
-
-def _has_arrays(n) -> bool:
-    return n.op in ("select", "store") or any(_has_arrays(a) for a in n.args)
 
 
 def _no_refutation(r: ObligationResult) -> ObligationResult:
@@ -153,23 +77,34 @@ def _no_refutation(r: ObligationResult) -> ObligationResult:
     return r
 
 
-def _refute_task(theorem: Theorem, timeout_s: float):
-    from certiloop.proofs.refute.search import refute
+def _refute_task(theorem: Theorem, budget: Budget):
+    from certiloop.proofs.refute import refute
 
-    return refute(theorem, timeout_s)
+    return refute(theorem, budget)
+
+
+def confirm_run(theorem: Theorem, refutation) -> RunEvidence:
+    """The independent checks of a violating run the refuter found (and re-checked exactly
+    on the unrolled claim): the interpreter replays it from the same start — other code:
+    compiled closures, real loops — and every closed-form flow on it is integrated
+    numerically (scipy) and must agree."""
+    from certiloop.falsify.replay import replay_refutation
+
+    outcome = replay_refutation(theorem, refutation)
+    return RunEvidence(True, outcome.violated, outcome.flows_confirmed, outcome.message)
 
 
 class Prover:
     """Holds the worker pool across theorems so workers are forked once, before z3 is used
     in this process."""
 
-    def __init__(self, jobs: int | None = None, timeout_s: float = 30.0, executor: str | None = None) -> None:
+    def __init__(self, jobs: int | None = None, budget: Budget | None = None,
+                 executor: str | None = None) -> None:
         """executor: a Dask scheduler address (tcp://host:8786) to discharge obligations on
         instead of the local process pool."""
         self.jobs = max(1, jobs or os.cpu_count() or 1)
-        self.timeout_s = timeout_s
+        self.budget = budget or Budget()
         self._pool: Executor | None = None
-        self._client = None
         if executor is not None:
             self._pool = _dask_executor(executor)
 
@@ -191,9 +126,8 @@ class Prover:
             return self._pool
         if self.jobs == 1:
             return None
-        if self._pool is None:
-            ctx = multiprocessing.get_context("fork")
-            self._pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx)
+        ctx = multiprocessing.get_context("fork")
+        self._pool = ProcessPoolExecutor(max_workers=self.jobs, mp_context=ctx)
         return self._pool
 
     def prove(
@@ -209,40 +143,32 @@ class Prover:
             on_start(len(obligations))
         if smtlib_dir is not None:
             write_smtlib(theorem.name, obligations, smtlib_dir)
-        refutation, why = None, ""
+        refutation, why, evidence = None, "", None
         if theorem.expected == "refuted":
-            # Scheduling only: a violating run makes `proved` impossible whatever the
-            # obligations say, so search for it while a quick per-branch report runs, and
-            # give the branches their full time only if no run was found.
-            search = self._submit(_refute_task, theorem, self.timeout_s)
-            results = self._discharge(obligations, None, QUICK_SECONDS)
+            # Scheduling only: search for the run while a quick per-branch report runs, and
+            # give the branches their full budget only if no confirmed run was found.
+            search = self._submit(_refute_task, theorem, self.budget)
+            results = self._discharge(obligations, None, self.budget.share(QUICK_SHARE), quick=True)
             refutation, why = search.result()
-            if refutation is None:
-                results = self._redischarge(obligations, results)
+            evidence = confirm_run(theorem, refutation) if refutation is not None else None
+            full = evidence is None or not evidence.confirmed
+            results = self._redischarge(obligations, results, everything=full)
             if on_result:
                 for r in results:
                     on_result(r)
         else:
-            results = self._discharge(obligations, on_result, self.timeout_s)
-        verdict, reason = "proved", ""
-        if any(r.verdict != "proved" for r in results):
-            if refutation is None and theorem.expected != "refuted":
-                refutation, why = self._run(_refute_task, theorem, self.timeout_s)
-            if refutation is not None:
-                verdict = "refuted"
-                reason = f"a run with {refutation.depth} loop iteration(s) violates the guarantee"
-            else:
-                verdict = "unknown"
-                failed = [r for r in results if r.verdict != "proved"]
-                reason = (f"{len(failed)} obligation(s) not proved (first: {failed[0].path}: "
-                          f"{failed[0].verdict}{': ' + failed[0].reason if failed[0].reason else ''}); "
-                          f"{why}")
+            results = self._discharge(obligations, on_result, self.budget)
+            if any(r.verdict != "proved" for r in results):
+                refutation, why = self._run(_refute_task, theorem, self.budget)
+                evidence = confirm_run(theorem, refutation) if refutation is not None else None
+        decision = decide_theorem(results, evidence, why)
         nonblocking = None
-        if theorem.check_nonblocking and verdict == "proved":
+        if theorem.check_nonblocking and decision.verdict == "proved":
             nonblocking = [_no_refutation(r) for r in
-                           self._discharge(nonblocking_obligations(theorem), None, self.timeout_s)]
-        return TheoremResult(theorem.name, verdict, theorem.expected, time.perf_counter() - start,
-                             results, reason, refutation, nonblocking=nonblocking)
+                           self._discharge(nonblocking_obligations(theorem), None, self.budget)]
+        return TheoremResult(theorem.name, decision.verdict, theorem.expected, time.perf_counter() - start,
+                             results, decision.reason, refutation, nonblocking=nonblocking, run=evidence,
+                             ill_defined=decision.ill_defined, inconsistent=decision.inconsistent)
 
     def _run(self, fn, *args):
         return self._submit(fn, *args).result()
@@ -255,25 +181,28 @@ class Prover:
         done.set_result(fn(*args))
         return done
 
-    def _redischarge(self, obligations: list[Obligation],
-                     quick: list[ObligationResult]) -> list[ObligationResult]:
-        """Give the obligations a quick pass left open their full time."""
-        again = [ob for ob, r in zip(obligations, quick) if r.verdict != "proved"]
-        redone = iter(self._discharge(again, None, self.timeout_s))
-        return [r if r.verdict == "proved" else next(redone) for r in quick]
+    def _redischarge(self, obligations: list[Obligation], quick: list[ObligationResult],
+                     everything: bool) -> list[ObligationResult]:
+        """Give obligations a quick pass left open their full budget: all of them, or (when
+        a confirmed run already decides the verdict) those about well-definedness, which
+        must never be left undecided by a share."""
+        again = [ob for ob, r in zip(obligations, quick)
+                 if r.verdict != "proved" and (everything or ob.kind == "defined")]
+        redone = {r.id: r for r in self._discharge(again, None, self.budget)}
+        return [redone.get(r.id, r) for r in quick]
 
     def _discharge(self, obligations: list[Obligation],
                    on_result: Callable[[ObligationResult], None] | None,
-                   timeout_s: float) -> list[ObligationResult]:
+                   budget: Budget, quick: bool = False) -> list[ObligationResult]:
         pool = self._executor()
         results: list[ObligationResult] = []
         if pool is None or len(obligations) == 1:
             for ob in obligations:
-                results.append(discharge_one(ob, timeout_s))
+                results.append(discharge_one(ob, budget, quick))
                 if on_result:
                     on_result(results[-1])
             return results
-        futures = [pool.submit(discharge_one, ob, timeout_s) for ob in obligations]
+        futures = [pool.submit(discharge_one, ob, budget, quick) for ob in obligations]
         for fut in futures:
             results.append(fut.result())
             if on_result:

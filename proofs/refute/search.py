@@ -30,13 +30,14 @@ from certiloop.models.lang.programs import (
 )
 from certiloop.models.lang.terms import BOOL, TRUE, And, Implies, Var, free_vars, substitute
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.core.exact import evaluate, index_value, truth
+from certiloop.proofs.core.exact import Undecided, evaluate, index_value, truth
 from certiloop.proofs.core.interval import show_value
 from certiloop.proofs.core.odes import holds_along
 from certiloop.proofs.core.solver import ArrayValue, check_valid
 from certiloop.proofs.core.vcgen import Names
 from certiloop.proofs.core.verdicts import _exactness, judge, readable
 from certiloop.proofs.core.wp import expand_modalities, flow_solution, unroll
+from certiloop.proofs.engine.budget import Budget
 from certiloop.proofs.refute.bmc import Encoder
 from certiloop.proofs.refute.finite import model_back, over_family
 
@@ -80,11 +81,12 @@ class Refutation:
                 "check": self.check, "seconds": round(self.seconds, 4)}
 
 
-SHORTCUT_SECONDS = 4.0  # per small-family attempt: they either find a run fast or not at all
+SHORTCUT_SHARE = 8  # a small-family or scenario attempt: it finds a run cheaply or not at all
 
 
-def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
-    """(refutation, "") if a violating run was found and re-checked, else (None, why not)."""
+def refute(theorem: Theorem, budget: Budget) -> tuple[Refutation | None, str]:
+    """(refutation, "") if a violating run was found and re-checked, else (None, why not).
+    Every attempt has a deterministic z3 budget, so the outcome does not depend on load."""
     start = time.perf_counter()
     why = f"no violating run with at most {theorem.unroll} loop iterations"
     index_sort = _index_sort(theorem)
@@ -103,15 +105,14 @@ def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
         run, final = encoder.run(program, {})
         claim = Implies(And(pre, *run), substitute(post, final))
         record = encoder.record
-        left = max(0.5, timeout_s - (time.perf_counter() - start))
         shortcut = scenario is not None or size is not None
+        share = budget.share(SHORTCUT_SHARE) if shortcut else budget
         if size is not None:
-            model = _search_family(claim, index_sort, size, min(left / 4, SHORTCUT_SECONDS))
+            model = _search_family(claim, index_sort, size, share)
             if model is None:
                 continue
         else:
-            # a scenario is a shortcut: it gets a share of the time, the general search the rest
-            answer = check_valid(claim, left / 2 if shortcut else left)
+            answer = check_valid(claim, share.rlimit, share.wall_s)
             if answer.status == "unknown":
                 if shortcut:
                     continue
@@ -120,14 +121,22 @@ def refute(theorem: Theorem, timeout_s: float) -> tuple[Refutation | None, str]:
                 continue
             verdict = judge("run", "", claim, answer, 0.0)
             if verdict.verdict != "refuted":
+                if shortcut:
+                    continue
                 return None, f"run at depth {depth} did not re-check: {verdict.reason}"
             model = answer.model or {}
         check = "exact rationals" if _exactness(model) == "exact rationals" else _exactness(model)
         initial = {k: v for k, v in model.items() if "@" not in k}
         replay = Replay(model, record, pre, post)
-        trace = replay.run(program, initial)
-        if trace is None:
-            return None, f"BUG: the solver's run at depth {depth} does not replay"
+        try:
+            trace = replay.run(program, initial)
+        except Undecided as exc:
+            trace, reason = None, str(exc)
+        else:
+            reason = "no choice of branches reproduces it"
+        if trace is None:  # re-checked, yet not reconstructed exactly (e.g. algebraic values on an edge)
+            why = f"a run at depth {depth} re-checked, but its steps could not be reconstructed: {reason}"
+            continue
         # the model may hold live z3 handles (array lookups): keep only plain text
         return Refutation(depth, replay.start, trace, f"{theorem.guarantee} is false at the end",
                           check, time.perf_counter() - start, replay.raw_start,
@@ -152,14 +161,14 @@ def _index_sort(theorem: Theorem) -> str | None:
     return None
 
 
-def _search_family(claim, sort_name: str, size: int, timeout_s: float) -> dict[str, Any] | None:
+def _search_family(claim, sort_name: str, size: int, budget: Budget) -> dict[str, Any] | None:
     """A state over a family of `size` elements that falsifies the claim, checked exactly
     on the original (quantified) claim, or None."""
     found = over_family(claim, sort_name, size)
     if found is None:
         return None
     lowered, reads = found
-    answer = check_valid(lowered, timeout_s)
+    answer = check_valid(lowered, budget.rlimit, budget.wall_s)
     if answer.status != "sat":
         return None
     state = model_back(answer.model or {}, reads, claim, sort_name, size)

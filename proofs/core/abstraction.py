@@ -1,14 +1,14 @@
-"""Subterm abstraction: rewrite atoms in terms of named abbreviations, then generalise.
+"""Subterm abstraction (a trusted weakening): rewrite atoms in terms of named abbreviations.
 
 Given an abbreviation a == e(x) (e.g. d0 == (p - r)·n), each atom g(x) ⋈ 0 is reduced
 modulo a - e(x) (a Gröbner-basis normal form with x eliminated first). Where the reduced
 form no longer mentions the eliminated symbols, the atom is replaced by it, and `a` is a
-fresh symbol. This is sound: the abstracted formula φ'(x, a) satisfies φ'(x, e(x)) ≡ φ(x),
-so if φ' holds for every a, φ holds. It is the paper's projection onto d0, fn, fnp: three
-real numbers per boundary instead of nine coordinates.
-
-Obligations are over SSA symbols (p@3 is p after a loop), so each abbreviation is
-instantiated for every version of its symbols that occurs.
+fresh symbol. This is sound for ANY instances (whoever chose them): the abstracted formula
+φ'(x, a) satisfies φ'(x, e(x)) ≡ φ(x), so if φ' holds for every a, φ holds. It is the
+paper's projection onto d0, fn, fnp: three real numbers per boundary instead of nine
+coordinates. What this module checks itself: an instance's symbol is fresh, and a
+congruence fact (b1 = b2 -> a1 = a2) is only stated for two instances whose definitions
+differ exactly by the index renaming.
 """
 
 from __future__ import annotations
@@ -36,68 +36,6 @@ from certiloop.models.lang.terms import (
     substitute,
 )
 
-MAX_INSTANCES = 16
-
-
-def _versions(formula: Node) -> dict[str, list[Node]]:
-    out: dict[str, list[Node]] = {}
-    for name, sym in free_vars(formula).items():
-        out.setdefault(name.split("@")[0], []).append(sym)
-    return out
-
-
-def abbreviation_instances(abbrevs: dict[str, Node], formula: Node) -> list[Instance]:
-    """(fresh symbol, definition over the formula's symbols) for each usable instance.
-
-    A definition's symbols are matched with every SSA version of them in the formula; a
-    symbol of an index sort that the formula lacks is a parameter (e.g. the boundary b in
-    d0(b) = (p - r(b))·n(b)) and takes every index symbol of its sort in the formula."""
-    if not abbrevs:
-        return []
-    versions = _versions(formula)
-    by_sort: dict[str, list[Node]] = {}
-    for sym in free_vars(formula).values():
-        by_sort.setdefault(str(sym.sort), []).append(sym)
-    out: list[Instance] = []
-    for name, definition in abbrevs.items():
-        syms = free_vars(definition)
-        pools, params = [], []
-        for s, node in sorted(syms.items()):
-            if s in versions:
-                pools.append(versions[s])
-            elif not node.sort.is_numeric and not node.sort.is_array and str(node.sort) in by_sort:
-                pools.append(by_sort[str(node.sort)])
-                params.append(s)
-            else:
-                pools = []
-                break
-        if not pools:
-            continue
-        names = sorted(syms)
-        combos = (c for c in itertools.product(*pools) if _consistent(dict(zip(names, c)), versions))
-        for combo in itertools.islice(combos, MAX_INSTANCES):
-            env = dict(zip(names, combo))
-            family = (name, tuple(env[n].payload for n in names if n not in params))
-            out.append(Instance(Var(f"{name}@abs{len(out)}"), substitute(definition, env),
-                                family, tuple(env[p] for p in params)))
-    return out
-
-
-def _suffix(sym: Node) -> str:
-    return sym.payload.partition("@")[2]
-
-
-def _consistent(env: dict[str, Node], versions: dict[str, list[Node]]) -> bool:
-    """Symbols of one state go together: if x takes version @N and y has a version @N,
-    y must take it too (p@7 with f@7, not p@7 with the initial f)."""
-    chosen = {_suffix(v) for v in env.values() if _suffix(v)}
-    for name, v in env.items():
-        have = {_suffix(x) for x in versions.get(name, ())}
-        for n in chosen & have:
-            if _suffix(v) != n:
-                return False
-    return True
-
 
 @dataclass(frozen=True)
 class Instance:
@@ -114,13 +52,36 @@ class Instance:
 
 
 def congruences(inst: list[Instance], index_term=lambda t: t) -> list[Node]:
-    """(b1 = b2) -> (a1 = a2) for instances of one family at index symbols b1, b2."""
+    """(b1 = b2) -> (a1 = a2) for instances of one family at index symbols b1, b2 — only
+    where a2's definition is a1's with b1 renamed to b2 (so the fact is a congruence)."""
     facts = []
     for a, b in itertools.combinations(inst, 2):
         if a.family == b.family and a.indices and [x.key for x in a.indices] != [y.key for y in b.indices]:
+            if len(a.indices) != len(b.indices) or not _renamed(a, b):
+                continue
             same = And(*(cmp("==", index_term(x), index_term(y)) for x, y in zip(a.indices, b.indices)))
             facts.append(Implies(same, cmp("==", a.symbol, b.symbol)))
     return facts
+
+
+def _renamed(a: Instance, b: Instance) -> bool:
+    if not all(x.op == "var" and y.op == "var" for x, y in zip(a.indices, b.indices)):
+        return False
+    swap = {x.payload: y for x, y in zip(a.indices, b.indices)}
+    return substitute(a.definition, swap).same(b.definition)
+
+
+def fresh_instances(formula: Node, inst: list[Instance]) -> list[Instance]:
+    """The instances whose symbols are fresh (a stale or reused name would not be a
+    generalisation but an assumption)."""
+    taken = set(free_vars(formula))
+    out, names = [], set()
+    for i in inst:
+        if i.symbol.op != "var" or i.symbol.payload in taken or i.symbol.payload in names:
+            continue
+        names.add(i.symbol.payload)
+        out.append(i)
+    return out
 
 
 def lower_term(t: Node) -> Node:

@@ -1,0 +1,5 @@
+import sys
+
+from certiloop.proofs.cli.main import main
+
+sys.exit(main())

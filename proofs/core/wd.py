@@ -1,0 +1,66 @@
+"""Well-definedness: where is a term or formula free of division by zero?
+
+`defined(f)` is a formula that holds exactly in the states where evaluating f never divides
+by zero. Connectives are read left to right, as a programmer reads them: in `b != 0 & a/b > 1`
+the division is only evaluated where `b != 0` holds, so the formula is well-defined
+everywhere. Quantifiers ask it for every value of their variables: `\\forall b b*(1/b) = 1`
+is defined nowhere, however its body would be read.
+
+The obligation generator asks, at every statement, test, assertion and ODE, that what is
+evaluated there is defined in that context. Once every division is known to have a nonzero
+denominator where it is evaluated, the solver's own reading of x/0 (an arbitrary value)
+can no longer matter, so a proof means the same with real division.
+"""
+
+from __future__ import annotations
+
+from certiloop.models.lang.terms import (
+    MODALITIES,
+    QUANTIFIERS,
+    TRUE,
+    And,
+    ForAll,
+    Implies,
+    Node,
+    Not,
+    cmp,
+)
+
+
+def defined_term(t: Node) -> Node:
+    """Every division inside the term t has a nonzero denominator."""
+    parts = [defined_term(a) for a in t.args] if t.args else []
+    if t.op == "/":
+        parts.append(cmp("!=", t.args[1], 0))
+    return And(*parts)
+
+
+def defined(f: Node) -> Node:
+    """The states in which the formula (or term) f can be evaluated without dividing by 0."""
+    op = f.op
+    if op in MODALITIES:
+        raise ValueError("expand [.] and <.> before asking whether a formula is defined")
+    if op in ("true", "false"):
+        return TRUE
+    if op in QUANTIFIERS:
+        body = defined(f.args[0])
+        return TRUE if body.op == "true" else ForAll(f.payload, body)
+    if op == "and":
+        return _left_to_right(f.args, lambda earlier: And(*earlier))
+    if op == "or":
+        return _left_to_right(f.args, lambda earlier: And(*(Not(e) for e in earlier)))
+    if op == "implies":
+        a, b = f.args
+        return And(defined(a), Implies(a, defined(b)))
+    if op in ("not", "iff"):
+        return And(*(defined(a) for a in f.args))
+    return defined_term(f)  # comparisons and terms: every part is evaluated
+
+
+def _left_to_right(args, reached) -> Node:
+    """Argument k is evaluated only where `reached(args[:k])` holds."""
+    return And(*(Implies(reached(args[:k]), defined(a)) for k, a in enumerate(args)))
+
+
+def has_division(f: Node) -> bool:
+    return f.op == "/" or any(has_division(a) for a in f.args)

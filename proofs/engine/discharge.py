@@ -1,0 +1,49 @@
+"""Discharging one obligation: its weakenings first (only trusted for `proved`), then as stated."""
+
+from __future__ import annotations
+
+import time
+
+from certiloop.proofs.arith.projection import abbreviation_instances
+from certiloop.proofs.core.solver import check_valid
+from certiloop.proofs.core.vcgen import Obligation
+from certiloop.proofs.core.verdicts import ObligationResult, judge
+from certiloop.proofs.core.weaken import weakenings
+from certiloop.proofs.engine.budget import PROJECTED_CEX_SHARE, Budget
+
+
+def discharge_one(ob: Obligation, budget: Budget | None = None, quick: bool = False,
+                  keep_model: bool = False) -> ObligationResult:
+    """Prove one obligation: first its weakenings (instantiated, lowered, abstracted; a
+    generalisation is only trusted for `proved`), then as stated, which alone can give a
+    counterexample. Every form gets the same deterministic budget; once the abstracted form
+    has a counterexample the obligation is probably false, and the raw forms get a share.
+    quick: the report beside a refutation, where the verdict is already decided by the run.
+    keep_model keeps the raw solver model, which may hold live z3 handles."""
+    budget = budget or Budget()
+    start = time.perf_counter()
+    projected_cex = False
+    for backend, weaker in weakenings(ob.formula, ob.abbreviations, abbreviation_instances, ob.stronger):
+        if projected_cex and quick and "abstracted" not in backend:
+            continue  # quick mode: raw forms of a projected-false obligation never finish in a share
+        share = budget.share(PROJECTED_CEX_SHARE) if projected_cex else budget
+        answer = check_valid(weaker, share.rlimit, share.wall_s)
+        if answer.status == "unsat":
+            res = judge(ob.id, ob.path, weaker, answer, time.perf_counter() - start)
+            res.backend, res.kind = backend, ob.kind
+            return res
+        if answer.status == "sat" and "abstracted" in backend:
+            projected_cex = True
+    if projected_cex and quick:
+        return ObligationResult(ob.id, ob.path, "unknown", time.perf_counter() - start, kind=ob.kind,
+                                reason="not proved: its projected form (abstracted) has a counterexample")
+    share = budget.share(PROJECTED_CEX_SHARE) if projected_cex else budget
+    answer = check_valid(ob.formula, share.rlimit, share.wall_s)
+    res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
+    res.kind = ob.kind
+    if res.verdict == "unknown" and projected_cex:
+        res.reason = (f"{res.reason}; its projected form (abstracted) has a counterexample, "
+                      "so it is probably false")
+    if not keep_model:
+        res.raw_model = None
+    return res

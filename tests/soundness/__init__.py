@@ -1,0 +1,1 @@
+"""Adversarial soundness suite (see harness.py)."""

@@ -1,0 +1,6 @@
+from . import cases_vacuity
+from .themes import theme_tests
+
+outcomes, test_witness_confirms_label, test_engine_outcome_allowed, test_theme_shape = theme_tests(
+    cases_vacuity, "10-vacuity"
+)
