@@ -75,6 +75,29 @@ def _replay(theorem: Theorem, refutation) -> ReplayOutcome:
                          "within rounding", run)
 
 
+def replay_witness(theorem: Theorem, witness) -> ReplayOutcome:
+    """Replay a vacuity witness run: the interpreter must take every decision of it and
+    reach its end. `violated` here means: the run replayed to the end."""
+    values = Values(witness.raw_initial)
+    try:
+        initial = values.state()
+        chooser = TraceChooser(witness.trace, values, _loop_labels(theorem.program))
+        interp = Interpreter(theorem, exact=values.all_rational, max_steps=max(1, chooser.outer_steps(theorem)))
+        run = interp.run(chooser, initial, checked=not values.all_rational)
+    except (Diverged, Rejected, Blocked, Inexact, KeyError, ValueError) as exc:
+        return ReplayOutcome(False, f"the witness run does not replay in the interpreter: {exc}")
+    if chooser.at < len(chooser.events):
+        return ReplayOutcome(False, "the interpreter stopped before the end of the witness run", run)
+    how = "exact" if values.all_rational else "floating point"
+    return ReplayOutcome(True, f"a witness run from {_shown(witness.initial)} replays in the interpreter "
+                         f"({how}, {len(witness.shown)} statements)", run)
+
+
+def _shown(initial: dict[str, str]) -> str:
+    text = ", ".join(f"{k} = {v}" for k, v in list(initial.items())[:6])
+    return text + (", ..." if len(initial) > 6 else "") if text else "any state"
+
+
 def _loop_labels(p) -> set[str]:
     out = {p.label} if isinstance(p, Loop) else set()
     for q in children(p):

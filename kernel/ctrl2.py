@@ -8,7 +8,7 @@ comments name the model's branch labels.
 import numpy as np
 
 MODEL = 'sbs.ctrl2'
-MODEL_HASH = '61696542538ddfee'  # the model's content hash when this code was extracted
+MODEL_HASH = 'f854f1205e36dea0'  # the model's content hash when this code was extracted
 INPUTS = ['px', 'py', 'pz', 'fxp', 'fyp', 'fzp', 'fx', 'fy', 'fz', 'D', 'e', 'G']
 FAMILIES = ['rx', 'nx', 'ry', 'ny', 'rz', 'nz']
 

@@ -69,6 +69,8 @@ def _as_fraction(value: Any) -> Fraction:
     if isinstance(value, bool):
         raise ModelError("a Python bool is not a number here; use true/false formulas")
     if isinstance(value, float):
+        if value != value or value in (float("inf"), float("-inf")):
+            raise ModelError(f"{value} is not a real number; a model's constants must be finite")
         # Floats are exact binary fractions; users who write 0.1 almost always mean 1/10.
         return Fraction(str(value))
     return Fraction(value)

@@ -88,7 +88,8 @@ class Theorem:
 
     @property
     def content_hash(self) -> str:
-        return hashlib.sha256(self.text.encode()).hexdigest()[:16]
+        """A hash of `canonical`: changes whenever the claim does (a sort, an invariant, ...)."""
+        return hashlib.sha256(self.canonical.encode()).hexdigest()[:16]
 
 
 

@@ -124,8 +124,10 @@ def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=N
             entry.kernel = _kernel_check(theorem)  # the shipped file may have changed: never cached
         else:
             entry = check_model(theorem, prover, opts)
-            if cache and entry.verdict != "unknown":  # a timeout may go away: never cached
+            if cache and entry.verdict != "unknown":  # a budget may be raised: never cached
                 cache.put(key, entry.to_json())
+        if cache and entry.verdict == "proved":  # lets `certiloop extract` skip the proof
+            cache.put(cache.key("proof", theorem.canonical), {"model": theorem.name, "verdict": "proved"})
         entries.append(entry)
         if on_model:
             on_model(entry)

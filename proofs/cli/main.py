@@ -76,6 +76,12 @@ def build_parser() -> argparse.ArgumentParser:
         "content hash; the kernel refuses to run with a model that changed since.")
     extract.add_argument("model", metavar="MODEL", help="library name (sbs.ctrl2) or path/to/file.py:theorem")
     extract.add_argument("-o", "--output", metavar="FILE", help="write the module to FILE (default: stdout)")
+    extract.add_argument("--cache", metavar="DIR", help="proof cache folder (default .certiloop/cache, "
+                         "or $CERTILOOP_CACHE): a model proved there under this exact claim is not re-proved")
+    extract.add_argument("--no-cache", action="store_true", help="prove the model afresh")
+    _budget_flags(extract)
+    extract.add_argument("--jobs", metavar="N", type=int, default=None,
+                         help="worker processes for the proof (default: number of cores)")
 
     gate = sub.add_parser(
         "gate", help="check every model against its expected verdict (for CI)",
@@ -302,16 +308,50 @@ def cmd_prove(args: argparse.Namespace) -> int:
 
 
 def cmd_extract(args: argparse.Namespace) -> int:
+    """Extract only what is proved: the model must prove now, or have a cache entry for its
+    exact claim (canonical text, certiloop source, z3 and sympy versions)."""
+    _check_common(args)
     from certiloop.kernel.extract import extract
     from certiloop.proofs.cli.loading import load
+    from certiloop.proofs.engine.cache import Cache
+    from certiloop.proofs.engine.prover import Prover
 
-    source = extract(load(args.model))
-    if args.output:
-        Path(args.output).write_text(source)
-        console(stderr=True).print(f"wrote {args.output}", highlight=False, markup=False)
+    theorem = load(args.model)
+    out_path = _writable(args.output) if args.output else None
+    cache = None if args.no_cache else Cache(Path(args.cache) if args.cache else None)
+    key = cache.key("proof", theorem.canonical) if cache else None
+    cached = cache.get(key) if cache else None
+    if cached is not None and cached.get("verdict") == "proved":
+        verdict, reason = "proved", ""
+    else:
+        with Prover(jobs=args.jobs, budget=_budget(args)) as prover:
+            result = prover.prove(theorem)
+        verdict, reason = result.verdict, result.reason
+        if cache and verdict == "proved":
+            cache.put(key, {"model": theorem.name, "verdict": verdict})
+    if verdict != "proved":
+        why = f": {reason}" if reason else ""
+        print(f"certiloop: error: refusing to extract {theorem.name}: it is {verdict}, not proved{why}",
+              file=sys.stderr)
+        return EXIT_FAILED
+    source = extract(theorem)
+    if out_path is not None:
+        out_path.write_text(source)
+        console(stderr=True).print(f"wrote {args.output} (from the proved model {theorem.name})",
+                                   highlight=False, markup=False)
     else:
         sys.stdout.write(source)
     return EXIT_OK
+
+
+def _writable(name: str) -> Path:
+    """An output path whose folder exists (checked before any work is done)."""
+    path = Path(name)
+    if not path.parent.is_dir():
+        raise BadInput(f"cannot write {name}: the folder {path.parent} does not exist")
+    if path.is_dir():
+        raise BadInput(f"cannot write {name}: it is a folder")
+    return path
 
 
 def cmd_falsify(args: argparse.Namespace) -> int:

@@ -65,6 +65,9 @@ def show_nonblocking(console: Console, result: TheoremResult) -> None:
     for o in obs:
         if o.verdict != "proved":
             console.print(f"    {o.id} {o.path}: {o.verdict} — {o.reason}", highlight=False, markup=False)
+    if result.witness:
+        mark = "witness" if result.witness_replayed else "no witness"
+        console.print(f"    {mark}: {result.witness}", highlight=False, markup=False)
 
 
 def show_refutation(console: Console, result: TheoremResult) -> None:
@@ -84,3 +87,5 @@ def show_refutation(console: Console, result: TheoremResult) -> None:
         after = ", ".join(f"{k} = {v}" for k, v in changed.items()) or "no change"
         console.print(f"    {where}{step.what}  →  {after}", highlight=False, markup=False)
     console.print(f"    violated: {ref.violated}", highlight=False, markup=False)
+    if result.run is not None:
+        console.print(f"    independent checks: {result.run.detail}", highlight=False, markup=False)

@@ -100,7 +100,7 @@ def lower_term(t: Node) -> Node:
 def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) -> Node | None:
     """The abstracted formula, or None when no atom could be rewritten. `extra_facts`
     (true whenever the abbreviations equal their definitions) become hypotheses."""
-    if not inst or _has_binder(formula):
+    if not inst or _binds_an_abbreviated_symbol(formula, inst):
         return None
     poly = _Polys(formula, inst)
     if poly.ring is None:
@@ -140,7 +140,7 @@ def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) 
                 return n
             changed[0] = True
             return cmp(n.payload, poly.node(rem), 0)
-        if n.op in ("and", "or", "not", "implies", "iff"):
+        if n.op in ("and", "or", "not", "implies", "iff", "forall", "exists"):
             return rebuild(n, tuple(rewrite(a) for a in n.args))
         return n
 
@@ -233,5 +233,11 @@ class _Polys:
         return add(*terms) if terms else const(0)
 
 
-def _has_binder(n: Node) -> bool:
-    return n.op in ("forall", "exists") or any(_has_binder(a) for a in n.args)
+def _binds_an_abbreviated_symbol(n: Node, inst: list[Instance]) -> bool:
+    """A quantifier over a symbol a definition mentions: the projection would move it out
+    of its scope. (Quantifiers over other symbols are rewritten inside, atom by atom.)"""
+    if n.op in ("forall", "exists"):
+        bound = {v.payload for v in n.payload}
+        if any(bound & set(free_vars(i.definition)) or i.symbol.payload in bound for i in inst):
+            return True
+    return any(_binds_an_abbreviated_symbol(a, inst) for a in n.args)

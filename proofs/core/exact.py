@@ -76,15 +76,14 @@ def evaluate(n: Node, state: dict[str, Any]) -> Any:
         return ArrayValue(entries, arr.default)
     if op == "cmp":
         a, b = (evaluate(x, state) for x in n.args)
+        if isinstance(a, ArrayValue) or isinstance(b, ArrayValue):
+            equal = _arrays_equal(a, b, n.args[0].sort, state)
+            return equal if n.payload == "==" else not equal
         if not _numeric(a) or not _numeric(b):
             if isinstance(a, (Fraction, int)) or isinstance(b, (Fraction, int)):
                 raise Undecided(f"cannot compare `{n}`")
             return (a == b) if n.payload == "==" else (a != b) if n.payload == "!=" else None
-        decided = iv.compare(n.payload, iv.lift(a), iv.lift(b))
-        if decided is None and n.payload in ("==", "!="):
-            equal = _algebraically_equal(n.args[0], n.args[1], state)
-            decided = equal if n.payload == "==" else not equal
-        return decided
+        return iv.compare(n.payload, iv.lift(a), iv.lift(b))
     vals = [iv.lift(evaluate(a, state)) for a in n.args]
     if op == "+":
         out = vals[0]
@@ -106,6 +105,32 @@ def evaluate(n: Node, state: dict[str, Any]) -> Any:
     if op == "^":
         return iv.power(vals[0], n.payload)
     raise Undecided(f"cannot evaluate `{n}`")
+
+
+def _arrays_equal(a: Any, b: Any, sort, state: dict[str, Any]) -> bool:
+    """Extensional equality: the same value at every index — over the model's finite
+    universe when there is one, else at every index either names plus the defaults."""
+    if not isinstance(a, ArrayValue) or not isinstance(b, ArrayValue):
+        raise Undecided("an array compared with something that is not one")
+    pools = [state.get(f"#universe:{d.name}") for d in sort.domain]
+    if all(pool is not None for pool in pools):
+        indices = list(itertools.product(*pools))
+    else:
+        if a.default is None or b.default is None:
+            raise Undecided("arrays whose values outside their listed entries are unknown")
+        indices = list(set(a.entries) | set(b.entries))
+        if not _same(a.default, b.default):
+            return False
+    return all(_same(a.get(i), b.get(i)) for i in indices)
+
+
+def _same(x: Any, y: Any) -> bool:
+    if _numeric(x) and _numeric(y):
+        decided = iv.compare("==", iv.lift(x), iv.lift(y))
+        if decided is None:
+            raise Undecided("array entries too close to compare")
+        return decided
+    return x == y
 
 
 MAX_ENUMERATION = 200_000
@@ -185,44 +210,6 @@ def _bounds_of(name: str, guard: Node, state: dict[str, Any]) -> tuple[int | Non
             cand = (fl + 1) if op == ">" else ce
             lo = cand if lo is None else max(lo, cand)
     return lo, hi
-
-
-def _algebraically_equal(a: Node, b: Node, state: dict[str, Any]) -> bool:
-    """Decide a = b exactly when z3's values are algebraic numbers: evaluate both sides in
-    sympy from the leaves (each algebraic value as the exact root it is) and test whether
-    the minimal polynomial of a - b is z, i.e. a - b = 0."""
-    import sympy
-
-    z = sympy.Symbol("z")
-    diff = _sympy_value(a, state) - _sympy_value(b, state)
-    return sympy.minimal_polynomial(diff, z) == z
-
-
-def _sympy_value(n: Node, state: dict[str, Any]):
-    import sympy
-
-    if n.op in ("var", "select"):
-        x = evaluate(n, state)
-        if isinstance(x, iv.Interval):
-            if not x.poly:
-                raise Undecided("an approximate value without its exact algebraic number")
-            poly = sympy.Poly(list(reversed(x.poly)), sympy.Symbol("z"))
-            return sympy.CRootOf(poly, x.root_index - 1)
-        return sympy.Rational(Fraction(x).numerator, Fraction(x).denominator)
-    if n.op == "const":
-        return sympy.Rational(n.payload.numerator, n.payload.denominator)
-    vals = [_sympy_value(a, state) for a in n.args]
-    if n.op == "+":
-        return sympy.Add(*vals)
-    if n.op == "*":
-        return sympy.Mul(*vals)
-    if n.op == "neg":
-        return -vals[0]
-    if n.op == "/":
-        return vals[0] / vals[1]
-    if n.op == "^":
-        return vals[0] ** n.payload
-    raise Undecided(f"cannot evaluate `{n}` exactly")
 
 
 def _numeric(x: Any) -> bool:

@@ -86,8 +86,10 @@ def _prenex(h: Node) -> tuple[tuple[Node, ...], Node]:
     return (), h
 
 
-def instantiate(formula: Node, wide: bool = False) -> Node | None:
-    """A quantifier-free formula that implies `formula` (None: no quantifiers, or an ∃ goal)."""
+def instantiate(formula: Node, wide: bool = False, keep_goal_exists: bool = False) -> Node | None:
+    """A quantifier-free formula that implies `formula` (None: no quantifiers, or an ∃ goal).
+    keep_goal_exists: instantiate the hypotheses and keep a goal's remaining quantifiers
+    (instances of hypotheses are implied by them, so this still only weakens)."""
     if not has_quantifier(formula):
         return None
     sk = _Skolem()
@@ -119,6 +121,6 @@ def instantiate(formula: Node, wide: bool = False) -> Node | None:
             instance = substitute(body, {v.payload: t for v, t in zip(variables, combo)})
             if not has_quantifier(instance):
                 out.append(instance)
-    if has_quantifier(goal):
+    if has_quantifier(goal) and not keep_goal_exists:
         return None
     return Implies(And(*out), goal)

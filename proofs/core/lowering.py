@@ -54,7 +54,7 @@ def _eq(a: Node, b: Node) -> Node:
 
 
 def eliminate_stores(f: Node) -> Node:
-    if f.op in ("and", "or", "not", "implies", "iff"):
+    if f.op in ("and", "or", "not", "implies", "iff", "forall", "exists"):
         return rebuild(f, tuple(eliminate_stores(a) for a in f.args))
     read = _find_read_over_write(f)
     if read is None:
@@ -74,6 +74,25 @@ def _has(n: Node, op: str) -> bool:
     return n.op == op or any(_has(a, op) for a in n.args)
 
 
+def _lowered_sort(sort):
+    """Index-sort values become reals (they are only compared for equality)."""
+    return REAL if sort not in (REAL, INT, BOOL) and not sort.is_array else sort
+
+
+def _quantifiers_keepable(n: Node, bound: frozenset[str]) -> bool:
+    if n.op in ("forall", "exists"):
+        if any(v.sort != REAL for v in n.payload):
+            return False
+        bound = bound | {v.payload for v in n.payload}
+    if n.op == "select" and any(_mentions(i, bound) for i in n.args[1:]):
+        return False
+    return all(_quantifiers_keepable(a, bound) for a in n.args)
+
+
+def _mentions(n: Node, names: frozenset[str]) -> bool:
+    return (n.op == "var" and n.payload in names) or any(_mentions(a, names) for a in n.args)
+
+
 def read_name(read: Node) -> str:
     array, *idx = read.args
     return f"{array.payload}[{','.join(str(i) for i in idx)}]"
@@ -81,9 +100,11 @@ def read_name(read: Node) -> str:
 
 def lower(formula: Node, reads_out: dict[str, tuple] | None = None) -> Node | None:
     """Plain real/Bool/Int arithmetic equivalent in validity, or None if not applicable.
-    reads_out, if given, receives symbol name -> (array name, index terms) for each read."""
+    reads_out, if given, receives symbol name -> (array name, index terms) for each read.
+    Quantifiers may stay if they bind Real variables that no read's index mentions (each
+    read is then one value, the same for every value of the bound variable)."""
     f = eliminate_stores(formula)
-    if _has(f, "store") or _has(f, "forall") or _has(f, "exists"):
+    if _has(f, "store") or not _quantifiers_keepable(f, frozenset()):
         return None
     reads: dict[str, Node] = {}
 
@@ -99,7 +120,7 @@ def lower(formula: Node, reads_out: dict[str, tuple] | None = None) -> Node | No
         collect(f)
     except ValueError:
         return None
-    mapping = {k: Var(k, r.sort) for k, r in reads.items()}
+    mapping = {k: Var(k, _lowered_sort(r.sort)) for k, r in reads.items()}
     if reads_out is not None:
         reads_out.update({k: (r.args[0].payload, r.args[1:]) for k, r in reads.items()})
 

@@ -64,6 +64,7 @@ from certiloop.models.lang.terms import (
     substitute,
 )
 from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.core.simplify import simplify
 from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
 from certiloop.proofs.core.vcgen import Names, Obligation
 from certiloop.proofs.core.wp import diamond, expand_modalities
@@ -128,9 +129,9 @@ class _Vacuity:
         if not segment:
             return facts
         body = seq(*segment)
-        runs = read_over_write(self.runs(body, TRUE))
-        strong = witnessed(runs, self.names, every_input=True)
-        self.emit(f"{where}{_describe(segment)}", facts, witnessed(runs, self.names),
+        runs = simplify(read_over_write(self.runs(body, TRUE)))
+        strong = simplify(witnessed(runs, self.names, every_input=True))
+        self.emit(f"{where}{_describe(segment)}", facts, simplify(witnessed(runs, self.names)),
                   stronger=(("every input", Implies(And(*facts), strong)),))
         after = _surviving(facts, body)
         for p in segment:  # a test at the top of the segment holds after it, if nothing later undoes it
@@ -346,6 +347,7 @@ def _linear_slope(x: Node, body: Node) -> tuple[Node, Node] | None:
 
 
 def _has_denominator(e) -> bool:
-    return sympy.fraction(sympy.together(e))[1] != 1
+    """A denominator that is not a constant (1/2 is fine; 1/x would need x ≠ 0)."""
+    return not sympy.fraction(sympy.together(e))[1].is_number
 
 

@@ -30,9 +30,14 @@ from certiloop.models.lang.terms import (
 def defined_term(t: Node) -> Node:
     """Every division inside the term t has a nonzero denominator."""
     parts = [defined_term(a) for a in t.args] if t.args else []
-    if t.op == "/":
+    if _risky(t):
         parts.append(cmp("!=", t.args[1], 0))
     return And(*parts)
+
+
+def _risky(t: Node) -> bool:
+    """A division whose denominator is not a nonzero constant (e/2 is always defined)."""
+    return t.op == "/" and not (t.args[1].op == "const" and t.args[1].payload != 0)
 
 
 def defined(f: Node) -> Node:
@@ -63,4 +68,5 @@ def _left_to_right(args, reached) -> Node:
 
 
 def has_division(f: Node) -> bool:
-    return f.op == "/" or any(has_division(a) for a in f.args)
+    """Does f divide by anything but a nonzero constant?"""
+    return _risky(f) or any(has_division(a) for a in f.args)

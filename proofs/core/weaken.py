@@ -26,7 +26,13 @@ def weakenings(formula: Node, abbreviations: dict[str, Node],
     """(how it was weakened, the weaker formula), most promising first. `stronger` are
     formulas the obligation generator built to imply the obligation (a strengthened claim)."""
     for how, strong in stronger:
+        for label, weaker in _all_weakened(strong, abbreviations, find_instances):
+            yield label.replace("z3 (", f"z3 ({how}, ", 1), weaker
         yield f"z3 ({how})", strong
+    yield from _all_weakened(formula, abbreviations, find_instances)
+
+
+def _all_weakened(formula: Node, abbreviations: dict[str, Node], find_instances: FindInstances):
     if _quantifies_integers(formula):
         return  # z3's own quantifier engine handles integer-indexed arrays (builtDR) best
     yield from _weakened(formula, abbreviations, find_instances, wide=False)
@@ -42,7 +48,7 @@ def _quantifies_integers(n: Node) -> bool:
 
 def _weakened(formula: Node, abbreviations: dict[str, Node], find_instances: FindInstances, wide: bool):
     base, steps = formula, []
-    instantiated = instantiate(base, wide)
+    instantiated = instantiate(base, wide, keep_goal_exists=True)
     if instantiated is not None:
         base, steps = instantiated, ["instantiated more" if wide else "instantiated"]
     lowered = lower(base) if _has_arrays(base) else None

@@ -9,11 +9,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-# Calibrated on the library (benchmarks/bench_rlimit.py): the costliest obligation that
-# proves needs ~RLIMIT_MEASURED units; the default leaves a wide margin above it.
-DEFAULT_RLIMIT = 20_000_000
+# Calibrated with benchmarks/bench_rlimit.py: the costliest obligation of any proved library
+# model needs about 50,000 units (sbs.ctrl2_dynamic, 2-core machine, z3 4.x); 40 times that
+# leaves room for harder user models while failing attempts stay short.
+DEFAULT_RLIMIT = 2_000_000
 QUICK_SHARE = 40  # the per-branch report beside a refutation: 1/40 of the full budget
 PROJECTED_CEX_SHARE = 4  # raw forms of an obligation whose projection has a counterexample
+# A search for a violating run explores a whole unrolled program at once: it gets 16 times
+# an obligation's budget (the library's hardest run, sbs.predictive_multi, needs ~4.6M units
+# under its scenario; sbs.ctrl2_last_wins ~2.7M over a two-boundary family).
+REFUTE_FACTOR = 16
 
 
 @dataclass(frozen=True)
@@ -23,3 +28,7 @@ class Budget:
 
     def share(self, divisor: int) -> "Budget":
         return replace(self, rlimit=max(1, self.rlimit // divisor))
+
+    def for_runs(self) -> "Budget":
+        """The budget of one attempt to find a violating (or a witness) run."""
+        return replace(self, rlimit=self.rlimit * REFUTE_FACTOR)

@@ -35,12 +35,15 @@ class TheoremResult:
     inconsistent: bool = False  # proofs and a confirmed run disagree: a certiloop bug
     # vacuity (theorems with check_nonblocking, once proved): the step always has a run
     nonblocking: list[ObligationResult] | None = None
+    witness: str = ""  # the vacuity witness run: how it replayed, or why there is none
+    witness_replayed: bool = False
 
     @property
     def nonblocking_verdict(self) -> str | None:
         if self.nonblocking is None:
             return None
-        return "proved" if all(o.verdict == "proved" for o in self.nonblocking) else "unknown"
+        proved = all(o.verdict == "proved" for o in self.nonblocking) and self.witness_replayed
+        return "proved" if proved else "unknown"
 
     @property
     def met_expectation(self) -> bool:
@@ -60,7 +63,7 @@ class TheoremResult:
             "ill_defined": self.ill_defined,
             "inconsistent": self.inconsistent,
             "obligations": [o.to_json() for o in self.obligations],
-            **({"nonblocking": {"verdict": self.nonblocking_verdict,
+            **({"nonblocking": {"verdict": self.nonblocking_verdict, "witness": self.witness,
                                 "obligations": [o.to_json() for o in self.nonblocking]}}
                if self.nonblocking is not None else {}),
             **self.extra,
@@ -81,6 +84,12 @@ def _refute_task(theorem: Theorem, budget: Budget):
     from certiloop.proofs.refute import refute
 
     return refute(theorem, budget)
+
+
+def _witness_task(theorem: Theorem, budget: Budget):
+    from certiloop.proofs.refute.witness import find_witness
+
+    return find_witness(theorem, budget)
 
 
 def confirm_run(theorem: Theorem, refutation) -> RunEvidence:
@@ -162,13 +171,29 @@ class Prover:
                 refutation, why = self._run(_refute_task, theorem, self.budget)
                 evidence = confirm_run(theorem, refutation) if refutation is not None else None
         decision = decide_theorem(results, evidence, why)
-        nonblocking = None
+        result = TheoremResult(theorem.name, decision.verdict, theorem.expected, 0.0, results,
+                               decision.reason, refutation, run=evidence, ill_defined=decision.ill_defined,
+                               inconsistent=decision.inconsistent)
         if theorem.check_nonblocking and decision.verdict == "proved":
-            nonblocking = [_no_refutation(r) for r in
-                           self._discharge(nonblocking_obligations(theorem), None, self.budget)]
-        return TheoremResult(theorem.name, decision.verdict, theorem.expected, time.perf_counter() - start,
-                             results, decision.reason, refutation, nonblocking=nonblocking, run=evidence,
-                             ill_defined=decision.ill_defined, inconsistent=decision.inconsistent)
+            self._vacuity(theorem, result)
+        result.seconds = time.perf_counter() - start
+        return result
+
+    def _vacuity(self, theorem: Theorem, result: TheoremResult) -> None:
+        """The step has a run from every state it can start in (obligations), and here is
+        one (a witness the interpreter replays)."""
+        result.nonblocking = [_no_refutation(r) for r in
+                              self._discharge(nonblocking_obligations(theorem), None, self.budget)]
+        if not all(r.verdict == "proved" for r in result.nonblocking):
+            return
+        witness, why = self._run(_witness_task, theorem, self.budget)
+        if witness is None:
+            result.witness = why
+            return
+        from certiloop.falsify.replay import replay_witness
+
+        outcome = replay_witness(theorem, witness)
+        result.witness, result.witness_replayed = outcome.message, outcome.violated
 
     def _run(self, fn, *args):
         return self._submit(fn, *args).result()

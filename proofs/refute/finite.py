@@ -125,7 +125,9 @@ def model_back(model: dict[str, Any], reads: dict[str, tuple], claim: Node, sort
         key = tuple(n.payload if n.op == "var" and n.payload in names else as_element(model.get(n.payload, n))
                     for n in indices)
         table = state.setdefault(array, ArrayValue({}, _default(symbols.get(array))))
-        table.entries[key] = value
+        ranged = symbols.get(array)
+        index_valued = ranged is not None and getattr(ranged.sort.range, "name", None) == sort_name
+        table.entries[key] = as_element(value) if index_valued else value
     for name, sym in symbols.items():
         if sym.sort.is_array and name not in state:
             state[name] = ArrayValue({}, _default(sym))

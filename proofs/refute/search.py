@@ -81,20 +81,21 @@ class Refutation:
                 "check": self.check, "seconds": round(self.seconds, 4)}
 
 
-SHORTCUT_SHARE = 8  # a small-family or scenario attempt: it finds a run cheaply or not at all
+FAMILY_SHARE = 4  # a small-family attempt: it finds a run cheaply or not at all
 
 
 def refute(theorem: Theorem, budget: Budget) -> tuple[Refutation | None, str]:
     """(refutation, "") if a violating run was found and re-checked, else (None, why not).
     Every attempt has a deterministic z3 budget, so the outcome does not depend on load."""
     start = time.perf_counter()
+    budget = budget.for_runs()
     why = f"no violating run with at most {theorem.unroll} loop iterations"
-    index_sort = _index_sort(theorem)
+    family_sort = index_sort(theorem)
     depths = range(1, theorem.unroll + 1)
     scenarios = (*theorem.scenarios, None)
     # cheap shortcuts first (the most restricted scenario, small concrete families, at every
     # depth), the general search last
-    attempts = [(d, s, m) for s in scenarios for d in depths for m in range(d, 0, -1)] if index_sort else []
+    attempts = [(d, s, m) for s in scenarios for d in depths for m in range(d, 0, -1)] if family_sort else []
     attempts += [(d, s, None) for d in depths for s in scenarios]
     for depth, scenario, size in attempts:
         names = Names()
@@ -106,9 +107,9 @@ def refute(theorem: Theorem, budget: Budget) -> tuple[Refutation | None, str]:
         claim = Implies(And(pre, *run), substitute(post, final))
         record = encoder.record
         shortcut = scenario is not None or size is not None
-        share = budget.share(SHORTCUT_SHARE) if shortcut else budget
+        share = budget.share(FAMILY_SHARE) if size is not None else budget
         if size is not None:
-            model = _search_family(claim, index_sort, size, share)
+            model = search_family(claim, family_sort, size, share)
             if model is None:
                 continue
         else:
@@ -153,7 +154,7 @@ def _frame(theorem: Theorem, start: dict[str, Any]) -> dict[str, str]:
     return out
 
 
-def _index_sort(theorem: Theorem) -> str | None:
+def index_sort(theorem: Theorem) -> str | None:
     for sym in {**program_symbols(theorem.program), **free_vars(theorem.guarantee)}.values():
         sort = sym.sort.domain[0] if sym.sort.is_array else sym.sort
         if not sort.is_numeric and sort != BOOL and not sort.is_array:
@@ -161,7 +162,7 @@ def _index_sort(theorem: Theorem) -> str | None:
     return None
 
 
-def _search_family(claim, sort_name: str, size: int, budget: Budget) -> dict[str, Any] | None:
+def search_family(claim, sort_name: str, size: int, budget: Budget) -> dict[str, Any] | None:
     """A state over a family of `size` elements that falsifies the claim, checked exactly
     on the original (quantified) claim, or None."""
     found = over_family(claim, sort_name, size)
