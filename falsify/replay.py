@@ -82,7 +82,8 @@ def replay_witness(theorem: Theorem, witness) -> ReplayOutcome:
     try:
         initial = values.state()
         chooser = TraceChooser(witness.trace, values, _loop_labels(theorem.program))
-        interp = Interpreter(theorem, exact=values.all_rational, max_steps=max(1, chooser.outer_steps(theorem)))
+        steps = max(1, chooser.outer_steps(theorem))
+        interp = Interpreter(theorem, exact=values.all_rational, max_steps=steps)
         run = interp.run(chooser, initial, checked=not values.all_rational)
     except (Diverged, Rejected, Blocked, Inexact, KeyError, ValueError) as exc:
         return ReplayOutcome(False, f"the witness run does not replay in the interpreter: {exc}")

@@ -51,7 +51,8 @@ def _value(x):
 
 
 def test_eqn12_case_4_fails_for_boundaries_at_acute_angles():
-    obs = [o for o in generate(library.get("sbs.eqn12")) if o.path.startswith("case 4")]
+    obs = [o for o in generate(library.get("sbs.eqn12"))
+           if o.path.startswith("case 4") and o.kind == "safety"]
     (ob,) = obs
     res = discharge_one(ob, keep_model=True)
     assert res.verdict == "refuted"
@@ -152,12 +153,15 @@ def test_ctrl2_control_step_provably_never_blocks(prover):
 
 
 @pytest.mark.parametrize("dropped", ["ff9 ", "sa "])
-def test_a_design_that_blocks_is_safe_but_fails_the_vacuity_check(prover, dropped):
-    # dropping a case removes runs, so safety still proves; only the vacuity check notices
+def test_a_design_that_blocks_is_safe_but_fails_the_vacuity_check(dropped):
+    # dropping a case removes runs, so safety still proves; only the vacuity check notices.
+    # The false vacuity obligation's raw quantified forms make z3 stall (outside its resource
+    # count); a small wall net keeps the test short, and the verdict is 'unknown' either way.
     theorem = library.get("sbs.ctrl2_2d")
     blocking = replace(theorem, name="ctrl2 missing a case",
                        program=_without_branch(theorem.program, dropped))
-    result = prover.prove(blocking)
+    with Prover(jobs=2, budget=Budget(wall_s=5)) as prover:
+        result = prover.prove(blocking)
     assert result.verdict == "proved"
     assert result.nonblocking_verdict == "unknown"
     failed = [o for o in result.nonblocking if o.verdict != "proved"]

@@ -65,7 +65,8 @@ def test_accumulator_in_three_dimensions_is_judged_right():
     q' = pz + vz. Exactly, q(t) = t^3/6 + t^2/2, so 2q >= t^3 is false at t = 2 and
     6q <= t^3 + 3t^2 is true (with equality)."""
     px, py, pz, vx, vy, vz, ax, ay, az = Reals("px py pz vx vy vz ax ay az")
-    start = And(px == 0, py == 0, pz == 0, vx == 0, vy == 0, vz == 0, ax == 0, ay == 0, az == 1, q == 0, t == 0)
+    start = And(px == 0, py == 0, pz == 0, vx == 0, vy == 0, vz == 0, ax == 0, ay == 0, az == 1,
+                q == 0, t == 0)
     flow = ode({px: vx, py: vy, pz: vz, vx: ax, vy: ay, vz: az, q: pz + vz, t: 1})
     false_claim = _prove(Theorem("u.false", start, flow, 2 * q >= t**3))
     true_claim = _prove(Theorem("u.true", start, flow, 6 * q <= t**3 + 3 * t**2))

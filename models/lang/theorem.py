@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import re
 from dataclasses import dataclass, field
+from typing import Callable
 
 from certiloop.models.lang.printing import show, show_program
 from certiloop.models.lang.programs import (
@@ -20,6 +21,7 @@ from certiloop.models.lang.programs import (
 )
 from certiloop.models.lang.terms import (
     BOOL,
+    INT,
     QUANTIFIERS,
     REAL,
     ModelError,
@@ -99,49 +101,85 @@ IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 RESERVED_SORTS = ("Real", "Int", "Bool", "Array")
 
 
+def _visit(t: "Theorem", on_node: Callable[[Node, str], None],
+           on_program: Callable[[Program, str], None] | None = None) -> None:
+    """Call on_node for every formula and term node the theorem holds (programs inside
+    modalities included), with where it is; on_program for every program node."""
+
+    def nodes(n: Node, where: str) -> None:
+        on_node(n, where)
+        if n.op in ("box", "diamond"):
+            programs(n.payload, where)
+        for a in n.args:
+            nodes(a, where)
+
+    def programs(p: Program, where: str) -> None:
+        if on_program is not None:
+            on_program(p, where)
+        if isinstance(p, (Assign, Havoc)):
+            nodes(p.target, where)
+        if isinstance(p, Assign):
+            nodes(p.value, where)
+        elif isinstance(p, Test):
+            nodes(p.cond, where)
+        elif isinstance(p, ODE):
+            for v, f in p.eqs:
+                nodes(v, where)
+                nodes(f, where)
+            for f in (p.domain, *p.invariants):
+                nodes(f, where)
+        elif isinstance(p, Loop) and p.invariant is not None:
+            nodes(p.invariant, where)
+        for q in children(p):
+            programs(q, where)
+
+    nodes(t.assumptions, "the assumptions")
+    programs(t.program, "the program")
+    nodes(t.guarantee, "the guarantee")
+    for name, definition in t.abbreviations.items():
+        nodes(definition, f"abbreviation {name}")
+    for s in t.scenarios:
+        nodes(s, "a scenario")
+    for c in t.constants:
+        nodes(c, "the constants")
+
+
 def symbol_occurrences(t: "Theorem") -> list[tuple[str, Sort, str]]:
     """(name, sort, where) for every symbol the theorem mentions: free or bound, in its
     formulas, programs, annotations, abbreviations, scenarios and constants."""
     out: list[tuple[str, Sort, str]] = []
 
-    def formula_syms(n: Node, where: str) -> None:
+    def on_node(n: Node, where: str) -> None:
         if n.op == "var":
             out.append((n.payload, n.sort, where))
         if n.op in QUANTIFIERS:
             out.extend((v.payload, v.sort, f"{where} (bound)") for v in n.payload)
-        if n.op in ("box", "diamond"):
-            program_syms(n.payload, where)
-        for a in n.args:
-            formula_syms(a, where)
 
-    def program_syms(p: Program, where: str) -> None:
-        if isinstance(p, (Assign, Havoc)):
-            formula_syms(p.target, where)
-        if isinstance(p, Assign):
-            formula_syms(p.value, where)
-        elif isinstance(p, Test):
-            formula_syms(p.cond, where)
-        elif isinstance(p, ODE):
-            for v, f in p.eqs:
-                formula_syms(v, where)
-                formula_syms(f, where)
-            for f in (p.domain, *p.invariants):
-                formula_syms(f, where)
-        elif isinstance(p, Loop) and p.invariant is not None:
-            formula_syms(p.invariant, where)
-        for q in children(p):
-            program_syms(q, where)
-
-    formula_syms(t.assumptions, "the assumptions")
-    program_syms(t.program, "the program")
-    formula_syms(t.guarantee, "the guarantee")
-    for name, definition in t.abbreviations.items():
-        formula_syms(definition, f"abbreviation {name}")
-    for s in t.scenarios:
-        formula_syms(s, "a scenario")
-    for c in t.constants:
-        formula_syms(c, "the constants")
+    _visit(t, on_node)
     return out
+
+
+def _check_term_sorts(t: "Theorem", where: str) -> None:
+    """Nodes built directly (not through the DSL's checked constructors) are sort-checked
+    too: array indices have their domain's sort, an Int cell or symbol gets an Int value."""
+
+    def on_node(n: Node, place: str) -> None:
+        if n.op in ("select", "store"):
+            indices = n.args[1:] if n.op == "select" else n.args[1:-1]
+            for want, got in zip(n.args[0].sort.domain, indices):
+                if got.sort != want:
+                    raise ModelError(f"{where}: index `{got}` of `{n.args[0]}` in {place} has sort "
+                                     f"{got.sort}, expected {want}")
+
+    def on_program(p: Program, place: str) -> None:
+        if isinstance(p, Assign):
+            want, got = p.target.sort, p.value.sort
+            ok = want == got or (want == REAL and got == INT)
+            if not ok:
+                raise ModelError(f"{where}: cannot assign `{p.value}` ({got}) to `{p.target}` ({want}) "
+                                 f"in {place}")
+
+    _visit(t, on_node, on_program)
 
 
 def _check_names_and_sorts(t: "Theorem", where: str) -> None:
@@ -192,6 +230,7 @@ def check_well_formed(t: Theorem) -> None:
         if not isinstance(c, Node) or c.op != "var":
             raise ModelError(f"{where}: constants must be symbols, got `{c}`")
     _check_names_and_sorts(t, where)
+    _check_term_sorts(t, where)
     _check_odes(t.program, where)
     prog_syms = program_symbols(t.program)
     # An assumption names a *constant* only if the program never writes it; a guarantee

@@ -32,6 +32,7 @@ class GateEntry:
     falsify: dict[str, Any] = field(default_factory=dict)
     kernel: str | None = None  # None: no shipped kernel; "": matches; else the drift
     nonblocking: dict[str, Any] | None = None  # the vacuity check, for models that ask for it
+    cross_check: dict[str, Any] | None = None  # cvc5's second opinion (gate --cross-check)
     cached: bool = False
 
     @property
@@ -58,6 +59,9 @@ class GateEntry:
             out.append("the vacuity check is not proved: the control step may block")
         if self.kernel:
             out.append(self.kernel)
+        if self.cross_check and self.cross_check["disagreements"]:
+            ids = ", ".join(d["id"] for d in self.cross_check["disagreements"])
+            out.append(f"SOUNDNESS ALARM: cvc5 disagrees with z3's proof of {ids}")
         return out
 
     @property
@@ -73,13 +77,14 @@ class GateEntry:
                 "seconds": round(self.seconds, 4), "reason": self.reason,
                 "counterexample": self.counterexample, "replay": self.replay, "falsify": self.falsify,
                 "kernel": self.kernel, "nonblocking": self.nonblocking, "obligations": self.obligations,
-                "cached": self.cached,
+                "cross_check": self.cross_check, "cached": self.cached,
                 "passed": self.passed, "message": self.message}
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> "GateEntry":
         keep = {k: data.get(k) for k in ("model", "expected", "verdict", "seconds", "obligations", "reason",
-                                         "counterexample", "replay", "falsify", "kernel", "nonblocking")}
+                                         "counterexample", "replay", "falsify", "kernel", "nonblocking",
+                                         "cross_check")}
         return cls(**keep, cached=True)
 
 
@@ -87,9 +92,10 @@ class GateEntry:
 class GateOptions:
     falsify_examples: int = 300
     seed: int = 0
+    cross_check: bool = False  # cvc5 re-checks every proved obligation
 
     def text(self) -> str:
-        return f"falsify={self.falsify_examples}/seed={self.seed}"
+        return f"falsify={self.falsify_examples}/seed={self.seed}" + ("/cvc5" if self.cross_check else "")
 
 
 def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntry:
@@ -106,10 +112,16 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntr
     summary = {"verdict": found.verdict, "examples": found.examples, "seconds": round(found.seconds, 3),
                "violated": found.run.violated if found.run else None, "check": found.check}
     kernel = _kernel_check(theorem)
+    opinion = None
+    if opts.cross_check:
+        from certiloop.proofs.engine.second_opinion import second_opinion
+
+        check = second_opinion(result.obligations + (result.nonblocking or []))
+        opinion = {**check.to_json(), "summary": check.summary}
     data = result.to_json()
     return GateEntry(theorem.name, theorem.expected, result.verdict, time.perf_counter() - start,
                      data["obligations"], result.reason, data["counterexample"], replay, summary, kernel,
-                     data.get("nonblocking"))
+                     data.get("nonblocking"), opinion)
 
 
 def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=None,

@@ -39,8 +39,9 @@ def build_parser() -> argparse.ArgumentParser:
     prove.add_argument("models", nargs="+", metavar="MODEL",
                        help="library name (sbs.ctrl1) or path/to/file.py:theorem")
     prove.add_argument("--json", metavar="F", help="write results as JSON to F ('-' for stdout)")
-    prove.add_argument("--smtlib", metavar="DIR", help="write every obligation as an SMT-LIB 2 file")
+    prove.add_argument("--smtlib", metavar="DIR", help="write every obligation as an SMT-LIB 2.6 file")
     _budget_flags(prove)
+    _cross_check_flag(prove)
     prove.add_argument("--jobs", metavar="N", type=int, default=None,
                        help="worker processes (default: number of cores)")
     prove.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
@@ -96,6 +97,7 @@ def build_parser() -> argparse.ArgumentParser:
     gate.add_argument("--markdown", metavar="F",
                       help="append a Markdown summary to F (e.g. $GITHUB_STEP_SUMMARY)")
     _budget_flags(gate)
+    _cross_check_flag(gate)
     gate.add_argument("--jobs", metavar="N", type=int, default=None,
                       help="worker processes (default: number of cores)")
     gate.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
@@ -109,14 +111,31 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _budget_flags(parser: argparse.ArgumentParser) -> None:
-    from certiloop.proofs.engine.budget import DEFAULT_RLIMIT
+    from certiloop.proofs.engine.budget import DEFAULT_RLIMIT, DEFAULT_WALL_S
 
     parser.add_argument("--rlimit", metavar="N", type=int, default=DEFAULT_RLIMIT,
                         help=f"z3 resource units per obligation before it is 'unknown' (default "
                         f"{DEFAULT_RLIMIT:,}); verdicts depend on this, never on the clock")
-    parser.add_argument("--timeout", metavar="S", type=float, default=600.0,
-                        help="wall-clock safety net per solver call (default 600 s); reaching it "
-                        "gives 'unknown' and says the machine may be overloaded")
+    parser.add_argument("--timeout", metavar="S", type=float, default=DEFAULT_WALL_S,
+                        help=f"wall-clock safety net per solver call (default {DEFAULT_WALL_S:g} s; "
+                        "run searches 5x): reaching it gives 'unknown' and says so. Only a guard "
+                        "against a stalled solver; --rlimit is the budget")
+
+
+def _cross_check_flag(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--cross-check", action="store_true",
+                        help="re-check every proved obligation with cvc5 (needs certiloop[crosscheck]); "
+                        "a disagreement is a soundness alarm and fails the run (exit 3)")
+
+
+def _need_cvc5(args: argparse.Namespace) -> None:
+    if getattr(args, "cross_check", False):
+        try:
+            import cvc5  # noqa: F401
+        except ImportError:
+            from certiloop.proofs.arith.crosscheck import MISSING
+
+            raise BadInput(MISSING) from None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -195,6 +214,7 @@ def _check_common(args: argparse.Namespace) -> None:
         raise BadInput(f"--rlimit must be at least 1, got {args.rlimit}")
     if args.jobs is not None and args.jobs < 1:
         raise BadInput(f"--jobs must be at least 1, got {args.jobs}")
+    _need_cvc5(args)
 
 
 def cmd_gate(args: argparse.Namespace) -> int:
@@ -213,7 +233,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
 
     theorems = [load(spec) for spec in (args.models or project_models())]
     cache = None if args.no_cache else Cache(Path(args.cache) if args.cache else None)
-    opts = GateOptions(falsify_examples=args.falsify_examples)
+    opts = GateOptions(falsify_examples=args.falsify_examples, cross_check=args.cross_check)
     out, err = console(), Console(stderr=True)
     start = time.perf_counter()
     with Prover(jobs=args.jobs, budget=_budget(args), executor=args.executor) as prover:
@@ -225,7 +245,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
             entries = run_gate(theorems, prover, opts, cache)
     table = Table(title="certiloop gate")
     columns = ("model", "expected", "verdict", "obligations", "step runs", "falsifier", "replay", "kernel",
-               "s", "gate")
+               *(("cvc5",) if opts.cross_check else ()), "s", "gate")
     for col in columns:
         table.add_column(col, no_wrap=col != "model", overflow="fold")
     for e in entries:
@@ -233,8 +253,11 @@ def cmd_gate(args: argparse.Namespace) -> int:
         replay = "-" if e.replay is None else ("violates" if e.replay["violated"] else "FAILS")
         kernel = "-" if e.kernel is None else ("matches" if not e.kernel else "DRIFTED")
         runs = "-" if e.nonblocking is None else verdict_text(e.nonblocking["verdict"])
+        cvc5 = (() if not opts.cross_check else
+                (f"{e.cross_check['confirmed']}/{e.cross_check['checked']}"
+                 + (" DISAGREES" if e.cross_check["disagreements"] else ""),) if e.cross_check else ("-",))
         table.add_row(e.model, e.expected, verdict_text(e.verdict), f"{proved}/{len(e.obligations)}", runs,
-                      e.falsify.get("verdict", "-"), replay, kernel,
+                      e.falsify.get("verdict", "-"), replay, kernel, *cvc5,
                       f"{e.seconds:.2f}" + (" (cached)" if e.cached else ""),
                       "[green]PASS[/]" if e.passed else "[bold red]FAIL[/]")
     out.print(table)
@@ -251,6 +274,10 @@ def cmd_gate(args: argparse.Namespace) -> int:
     if args.markdown:
         with open(args.markdown, "a") as fh:  # CI summary files are appended to
             fh.write(markdown(entries))
+    if any(e.cross_check and e.cross_check["disagreements"] for e in entries):
+        print("certiloop: SOUNDNESS ALARM: cvc5 disagrees with a z3 proof (see FAIL above); "
+              "please report this certiloop bug", file=sys.stderr)
+        return EXIT_INCONSISTENT
     return EXIT_OK if not failed else EXIT_FAILED
 
 
@@ -287,6 +314,8 @@ def cmd_prove(args: argparse.Namespace) -> int:
                                           on_result=lambda r, t=task: bar.advance(t), smtlib_dir=smt_dir)
             else:
                 result = prover.prove(theorem, smtlib_dir=smt_dir)
+            if args.cross_check:
+                _cross_check(result, err)
             show_result(out, result, verbose=args.verbose)
             results.append(result)
     if args.json:
@@ -296,7 +325,11 @@ def cmd_prove(args: argparse.Namespace) -> int:
             print(text)
         else:
             Path(args.json).write_text(text + "\n")
-    if any(r.inconsistent for r in results):
+    alarms = [r for r in results if r.extra.get("cross_check", {}).get("disagreements")]
+    for r in alarms:
+        print(f"certiloop: SOUNDNESS ALARM: cvc5 disagrees with z3 on {r.model}: "
+              f"{r.extra['cross_check']['summary']}; please report this certiloop bug", file=sys.stderr)
+    if alarms or any(r.inconsistent for r in results):
         return EXIT_INCONSISTENT
     for r in results:
         if r.ill_defined:
@@ -305,6 +338,19 @@ def cmd_prove(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     all_proved = all(r.verdict == "proved" and r.nonblocking_verdict in (None, "proved") for r in results)
     return EXIT_OK if all_proved else EXIT_FAILED
+
+
+def _cross_check(result, err) -> None:
+    """cvc5's opinion on every form z3 proved, kept in the result (shown, and in --json)."""
+    from certiloop.proofs.engine.second_opinion import second_opinion
+
+    obligations = result.obligations + (result.nonblocking or [])
+    if err.is_terminal:
+        with err.status(f"cross-checking {result.model} with cvc5"):
+            opinion = second_opinion(obligations)
+    else:
+        opinion = second_opinion(obligations)
+    result.extra["cross_check"] = {**opinion.to_json(), "summary": opinion.summary}
 
 
 def cmd_extract(args: argparse.Namespace) -> int:

@@ -51,6 +51,8 @@ def show_result(console: Console, result: TheoremResult, verbose: bool = False) 
                           markup=False)
     if result.nonblocking is not None:
         show_nonblocking(console, result)
+    if "cross_check" in result.extra:
+        show_cross_check(console, result.extra["cross_check"])
     if result.reason:
         console.print(f"  {result.reason}", highlight=False, markup=False)
     if result.refutation is not None:
@@ -68,6 +70,17 @@ def show_nonblocking(console: Console, result: TheoremResult) -> None:
     if result.witness:
         mark = "witness" if result.witness_replayed else "no witness"
         console.print(f"    {mark}: {result.witness}", highlight=False, markup=False)
+
+
+def show_cross_check(console: Console, check: dict) -> None:
+    style = "bold red" if check["disagreements"] else "green" if not check["unconfirmed"] else "yellow"
+    console.print(f"  second opinion: [{style}]{escape(check['summary'])}[/] "
+                  f"({check['resources']:,} cvc5 units, {check['seconds']:.2f} s)", highlight=False)
+    for d in check["disagreements"]:
+        console.print(f"    {d['id']}: cvc5 finds the proved form false at: "
+                      + d["cvc5_model"].replace("\n", ", "), highlight=False, markup=False)
+    for u in check["unconfirmed"]:
+        console.print(f"    {u['id']}: not confirmed ({u['why']})", highlight=False, markup=False)
 
 
 def show_refutation(console: Console, result: TheoremResult) -> None:

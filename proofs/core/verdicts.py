@@ -33,10 +33,11 @@ class ObligationResult:
     counterexample: dict[str, str] | None = None
     check: str = ""  # how a counterexample was confirmed
     raw_model: dict[str, Any] | None = field(default=None, repr=False)
+    # the form z3 proved (the obligation or a weakening of it), for a second opinion (cvc5)
+    proved_formula: Any = field(default=None, repr=False)
 
     def to_json(self) -> dict[str, Any]:
-        d = asdict(self)
-        d.pop("raw_model")
+        d = {k: v for k, v in asdict(self).items() if k not in ("raw_model", "proved_formula")}
         return d
 
 

@@ -19,16 +19,22 @@ PROJECTED_CEX_SHARE = 4  # raw forms of an obligation whose projection has a cou
 # an obligation's budget (the library's hardest run, sbs.predictive_multi, needs ~4.6M units
 # under its scenario; sbs.ctrl2_last_wins ~2.7M over a two-boundary family).
 REFUTE_FACTOR = 16
+DEFAULT_WALL_S = 60.0
+RUN_WALL_FACTOR = 5  # a run search's calls are larger: a wider safety net
 
 
 @dataclass(frozen=True)
 class Budget:
     rlimit: int = DEFAULT_RLIMIT  # z3 resource units per obligation form: decides verdicts
-    wall_s: float = 600.0  # per solver call: only a safety net
+    # Per solver call, only a safety net: z3's nonlinear arithmetic can spend minutes on huge
+    # rationals inside one step its resource count does not cover (seen on false quantified
+    # obligations); such a call ends 'unknown' and says the net was reached. Library proofs
+    # take under 5 s a call.
+    wall_s: float = DEFAULT_WALL_S
 
     def share(self, divisor: int) -> "Budget":
         return replace(self, rlimit=max(1, self.rlimit // divisor))
 
     def for_runs(self) -> "Budget":
         """The budget of one attempt to find a violating (or a witness) run."""
-        return replace(self, rlimit=self.rlimit * REFUTE_FACTOR)
+        return replace(self, rlimit=self.rlimit * REFUTE_FACTOR, wall_s=self.wall_s * RUN_WALL_FACTOR)

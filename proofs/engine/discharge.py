@@ -30,7 +30,7 @@ def discharge_one(ob: Obligation, budget: Budget | None = None, quick: bool = Fa
         answer = check_valid(weaker, share.rlimit, share.wall_s)
         if answer.status == "unsat":
             res = judge(ob.id, ob.path, weaker, answer, time.perf_counter() - start)
-            res.backend, res.kind = backend, ob.kind
+            res.backend, res.kind, res.proved_formula = backend, ob.kind, weaker
             return res
         if answer.status == "sat" and "abstracted" in backend:
             projected_cex = True
@@ -41,6 +41,8 @@ def discharge_one(ob: Obligation, budget: Budget | None = None, quick: bool = Fa
     answer = check_valid(ob.formula, share.rlimit, share.wall_s)
     res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
     res.kind = ob.kind
+    if res.verdict == "proved":
+        res.proved_formula = ob.formula
     if res.verdict == "unknown" and projected_cex:
         res.reason = (f"{res.reason}; its projected form (abstracted) has a counterexample, "
                       "so it is probably false")

@@ -12,7 +12,6 @@ from typing import Any, Callable
 
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.core.solver import smtlib_text
 from certiloop.proofs.core.vacuity import nonblocking_obligations
 from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.core.verdicts import ObligationResult, RunEvidence, decide_theorem
@@ -145,7 +144,10 @@ class Prover:
         on_result: Callable[[ObligationResult], None] | None = None,
         on_start: Callable[[int], None] | None = None,
         smtlib_dir: Path | None = None,
+        search: bool = True,
     ) -> TheoremResult:
+        """search=False only discharges the obligations: a theorem not proved is then
+        'unknown', without the (costly) search for a violating run."""
         start = time.perf_counter()
         obligations = generate(theorem)
         if on_start:
@@ -153,7 +155,7 @@ class Prover:
         if smtlib_dir is not None:
             write_smtlib(theorem.name, obligations, smtlib_dir)
         refutation, why, evidence = None, "", None
-        if theorem.expected == "refuted":
+        if theorem.expected == "refuted" and search:
             # Scheduling only: search for the run while a quick per-branch report runs, and
             # give the branches their full budget only if no confirmed run was found.
             search = self._submit(_refute_task, theorem, self.budget)
@@ -167,7 +169,7 @@ class Prover:
                     on_result(r)
         else:
             results = self._discharge(obligations, on_result, self.budget)
-            if any(r.verdict != "proved" for r in results):
+            if search and any(r.verdict != "proved" for r in results):
                 refutation, why = self._run(_refute_task, theorem, self.budget)
                 evidence = confirm_run(theorem, refutation) if refutation is not None else None
         decision = decide_theorem(results, evidence, why)
@@ -252,8 +254,10 @@ def _dask_executor(address: str) -> Executor:
 
 
 def write_smtlib(model: str, obligations: list[Obligation], folder: Path) -> None:
+    """Each obligation as a standalone SMT-LIB 2.6 script (our printer; `unsat` proves it)."""
+    from certiloop.proofs.arith.smtlib import script
+
     folder.mkdir(parents=True, exist_ok=True)
     for ob in obligations:
-        text = smtlib_text(ob.formula, f"{model} {ob.id}: {ob.path}")
-        (folder / f"{model}.{ob.id}.smt2").write_text(text + "(check-sat)\n" if "(check-sat)" not in text
-                                                      else text)
+        text = script(ob.formula, f"certiloop obligation {model} {ob.id}: {ob.path}")
+        (folder / f"{model}.{ob.id}.smt2").write_text(text)

@@ -17,7 +17,7 @@ from fractions import Fraction
 from typing import Callable, Iterator
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Loop, Program, Seq, Test
-from certiloop.models.lang.terms import And, Node, cmp, const, rebuild
+from certiloop.models.lang.terms import INT, And, Node, cmp, const, rebuild
 from certiloop.models.lang.theorem import Theorem
 
 FLIP = {"<": ">=", "<=": ">", ">": "<=", ">=": "<", "==": "!=", "!=": "=="}
@@ -83,6 +83,8 @@ def _perturb(counter: _Counter) -> Callable[[Node], Node]:
         if t.op == "const" and t.sort.is_numeric:
             if counter.hit():
                 counter.what = f"perturb {t} to {t.payload + 1}"
+                if t.sort == INT:  # keep the sort: an Int constant stays an Int
+                    return const(int(t.payload) + 1)
                 return const(t.payload + 1 if t.payload.denominator == 1 else t.payload * Fraction(3, 2))
             return t
         if t.args and t.op not in ("forall", "exists", "box", "diamond"):
