@@ -22,6 +22,7 @@ from certiloop.proofs.core.wp import flow_solution
 GRID = 64  # samples when locating where a closed-form flow leaves its domain
 WATCH_SAMPLES = 33  # samples along a flow for the guarantee's margins (plots, targeting)
 MAX_RHS_CALLS = 20_000  # a stiff flow (a gain of 1e300) is given up, not followed for hours
+ESCAPE = 1e9  # a flow is followed until a value reaches this (beyond any model's scale)
 RTOL, ATOL = 1e-7, 1e-9  # found runs are re-checked, so search favours speed
 
 
@@ -112,11 +113,15 @@ class Flow:
         def leaves(_t, y):
             return self.domain(put(y))
         leaves.terminal, leaves.direction = True, -1
+
+        def escapes(_t, y):  # a finite escape time: stop where a value leaves the models' scale
+            return ESCAPE - float(np.max(np.abs(y)))
+        escapes.terminal, escapes.direction = True, -1
         y0 = [float(state[n]) for n in names]
         try:
             with np.errstate(all="ignore"):  # a blow-up is detected below, not printed
-                sol = solve_ivp(f, (0.0, horizon), y0, events=leaves, dense_output=True, rtol=RTOL,
-                                atol=ATOL)
+                sol = solve_ivp(f, (0.0, horizon), y0, events=(leaves, escapes), dense_output=True,
+                                rtol=RTOL, atol=ATOL)
         except (ValueError, OverflowError) as exc:  # event location on a blown-up solution
             raise Blocked(f"integration failed: {exc}") from None
         if sol.status == -1 or not np.all(np.isfinite(sol.y)):

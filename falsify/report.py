@@ -11,6 +11,10 @@ from certiloop.falsify.search import Falsification
 
 def show_falsification(console: Console, result: Falsification) -> None:
     head = f"{result.model}: "
+    if not result.found and result.note:
+        console.print(f"[bold]{result.model}[/]: [yellow]no run[/]: {result.note} ({result.seconds:.2f} s)",
+                      highlight=False)
+        return
     if not result.found:
         console.print(f"[bold]{result.model}[/]: [green]no counterexample[/] in {result.examples} examples "
                       f"({result.seconds:.2f} s)")

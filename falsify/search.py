@@ -56,6 +56,7 @@ class Falsification:
     run: Run | None = None
     check: str = ""  # how the violation was re-checked
     script: list[tuple[str, Any]] = field(default_factory=list)
+    note: str = ""  # why the search could not run, e.g. no start state meets the assumptions
 
     @property
     def verdict(self) -> str:
@@ -63,7 +64,8 @@ class Falsification:
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"model": self.model, "verdict": self.verdict, "examples": self.examples,
-                               "seconds": round(self.seconds, 4), "counterexample": None}
+                               "seconds": round(self.seconds, 4), "counterexample": None,
+                               "note": self.note}
         if self.run is not None:
             out["counterexample"] = {"trace": [c.to_json() for c in self.run.checkpoints],
                                      "violated": self.run.violated, "check": self.check,
@@ -82,6 +84,7 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     from hypothesis import seed as fixed_seed
     from hypothesis import strategies as st
     from hypothesis.database import DirectoryBasedExampleDatabase
+    from hypothesis.errors import Unsatisfiable
 
     opts = options or Options()
     interp = Interpreter(theorem, max_steps=opts.max_steps, families=opts.families)
@@ -122,6 +125,11 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
         check = found.check if found.check != "deep" else confirm(theorem, found.script, found.run, opts)
         return Falsification(theorem.name, True, count["first"], time.perf_counter() - start,
                              found.run, check, found.script)
+    except Unsatisfiable:  # every draw was rejected: nothing was run, which is not a pass
+        return Falsification(theorem.name, False, 0, time.perf_counter() - start,
+                             note=f"no run could be started in {count['examples']} tries: every drawn "
+                             "start state missed the assumptions or blocked at once (are the "
+                             "assumptions satisfiable?)")
     return Falsification(theorem.name, False, count["examples"], time.perf_counter() - start)
 
 

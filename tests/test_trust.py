@@ -172,3 +172,27 @@ def test_verdicts_depend_on_the_resource_budget_not_the_clock():
         result = starved.prove(hard)
     assert result.verdict == "unknown" and "resource budget" in result.obligations[0].reason
     assert _prove(hard).verdict == "proved"
+
+
+# --------------------------------------------------------------------------- crash classes (item 10)
+
+
+def test_falsify_with_unsatisfiable_assumptions_says_no_run_could_start():
+    from certiloop.falsify.search import Options, falsify
+
+    x, y = Reals("x y")
+    theorem = Theorem("u.unsat", And(x > 1, x < 0), assign(y, x), y > 5)
+    found = falsify(theorem, Options(max_examples=50, database=None))
+    assert not found.found and "assumptions satisfiable" in found.note
+
+
+def test_falsify_follows_a_flow_up_to_its_finite_escape_time():
+    from certiloop.falsify.search import Options, falsify
+
+    x, t = Reals("x t")
+    theorem = Theorem("u.escape", And(x == 1, t == 0), ode({x: x * x, t: 1}), x <= 100, expected="refuted")
+    found = falsify(theorem, Options(max_examples=50, database=None))
+    assert found.found  # x = 1/(1 - t) passes 100 before it escapes at t = 1
+    last = found.run.checkpoints[-1].state
+    # independent: the exact solution 1/(1-t) reaches 100 at t = 0.99 and escapes at t = 1
+    assert last["x"] > 100 and 0.99 < last["t"] < 1 + 1e-6
