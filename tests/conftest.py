@@ -2,8 +2,9 @@
 
 The default run (the README's test command, CI) is derandomised: hypothesis uses a fixed
 seed, so a failure reproduces. `HYPOTHESIS_PROFILE=deep python -m pytest -m deep` is the
-deep run, also in CI: random seeds, many more examples, and the tests marked `deep` (a
-fixed seed has already hidden a real kernel bug once). `dev` is random with default sizes.
+deep run: random seeds, many more examples, and the tests marked `deep` (a fixed seed has
+already hidden a real kernel bug once). CI runs the property tests once more under
+`deep-ci` (random seeds, 200 examples). `dev` is random with default sizes.
 """
 
 import os
@@ -14,6 +15,9 @@ from hypothesis import HealthCheck, settings
 settings.register_profile("ci", derandomize=True, deadline=None, database=None,
                           suppress_health_check=[HealthCheck.too_slow])
 settings.register_profile("deep", deadline=None, max_examples=1000, database=None,
+                          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+# CI's short random-seed run of the property tests (.ci/run): random, not derandomised
+settings.register_profile("deep-ci", deadline=None, max_examples=200, database=None,
                           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 settings.register_profile("dev", deadline=None)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
