@@ -1,10 +1,11 @@
 """Test profiles.
 
 The default run (the README's test command, CI) is derandomised: hypothesis uses a fixed
-seed, so a failure reproduces. `HYPOTHESIS_PROFILE=deep python -m pytest -m deep` is the
-deep run: random seeds, many more examples, and the tests marked `deep` (a fixed seed has
-already hidden a real kernel bug once). CI runs the property tests once more under
-`deep-ci` (random seeds, 200 examples). `dev` is random with default sizes.
+seed, so a failure reproduces. `HYPOTHESIS_PROFILE=deep python -m pytest -q` is the deep
+run: everything, with random seeds, many more examples, and the tests marked `deep` (add
+`-m deep` for only those); a fixed seed has already hidden a real kernel bug once. CI runs
+the property tests once more under `deep-ci` (random seeds, 200 examples). `dev` is random
+with default sizes.
 """
 
 import os
@@ -33,7 +34,7 @@ def pytest_collection_modifyitems(config, items):
     """Tests marked `deep` run only in the deep profile or when asked for with -m deep."""
     if DEEP or "deep" in (config.getoption("-m") or ""):
         return
-    skip = pytest.mark.skip(reason="deep run only: HYPOTHESIS_PROFILE=deep python -m pytest -m deep")
+    skip = pytest.mark.skip(reason="deep run only: HYPOTHESIS_PROFILE=deep python -m pytest -q")
     for item in items:
         if "deep" in item.keywords:
             item.add_marker(skip)

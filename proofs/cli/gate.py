@@ -33,7 +33,13 @@ class GateEntry:
     kernel: str | None = None  # None: no shipped kernel; "": matches; else the drift
     nonblocking: dict[str, Any] | None = None  # the vacuity check, for models that ask for it
     cross_check: dict[str, Any] | None = None  # cvc5's second opinion (gate --cross-check)
+    inconsistent: bool = False  # proofs and a confirmed run disagree: a certiloop bug
     cached: bool = False
+
+    @property
+    def alarm(self) -> bool:
+        """A soundness alarm (exit 3), not just a failed expectation."""
+        return self.inconsistent or bool(self.cross_check and self.cross_check["disagreements"])
 
     @property
     def problems(self) -> list[str]:
@@ -77,14 +83,14 @@ class GateEntry:
                 "seconds": round(self.seconds, 4), "reason": self.reason,
                 "counterexample": self.counterexample, "replay": self.replay, "falsify": self.falsify,
                 "kernel": self.kernel, "nonblocking": self.nonblocking, "obligations": self.obligations,
-                "cross_check": self.cross_check, "cached": self.cached,
+                "cross_check": self.cross_check, "inconsistent": self.inconsistent, "cached": self.cached,
                 "passed": self.passed, "message": self.message}
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> "GateEntry":
         keep = {k: data.get(k) for k in ("model", "expected", "verdict", "seconds", "obligations", "reason",
                                          "counterexample", "replay", "falsify", "kernel", "nonblocking",
-                                         "cross_check")}
+                                         "cross_check", "inconsistent")}
         return cls(**keep, cached=True)
 
 
@@ -121,7 +127,7 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntr
     data = result.to_json()
     return GateEntry(theorem.name, theorem.expected, result.verdict, time.perf_counter() - start,
                      data["obligations"], result.reason, data["counterexample"], replay, summary, kernel,
-                     data.get("nonblocking"), opinion)
+                     data.get("nonblocking"), opinion, result.inconsistent)
 
 
 def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=None,

@@ -1,7 +1,7 @@
 """No mutant of a library model that the falsifier can break is ever proved.
 
 The default run takes an evenly spread sample of mutants of every library model; the deep
-run (HYPOTHESIS_PROFILE=deep python -m pytest -m deep) takes all of them."""
+run (HYPOTHESIS_PROFILE=deep python -m pytest -q) takes all of them."""
 
 from __future__ import annotations
 
