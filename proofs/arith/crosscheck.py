@@ -27,7 +27,7 @@ DEFAULT_RLIMIT = 200_000
 # Only a guard against a hung solver, never the budget: cvc5 does not count resources inside
 # one step of its cylindrical-covering procedure (nl-cov), and a few formulas spend minutes
 # there with fewer than 20,000 units used. A check cut off by this net says so.
-SAFETY_NET_S = 20.0
+SAFETY_NET_S = 5.0
 
 MISSING = "--cross-check needs cvc5: pip install 'certiloop[crosscheck]'"
 
