@@ -196,3 +196,14 @@ def test_falsify_follows_a_flow_up_to_its_finite_escape_time():
     last = found.run.checkpoints[-1].state
     # independent: the exact solution 1/(1-t) reaches 100 at t = 0.99 and escapes at t = 1
     assert last["x"] > 100 and 0.99 < last["t"] < 1 + 1e-6
+
+
+def test_gate_fails_a_model_whose_assumptions_no_run_can_meet(tmp_path, capsys):
+    from certiloop.proofs.cli.main import main
+
+    model = tmp_path / "vacuous_models.py"
+    model.write_text("from certiloop.models import And, Reals, Theorem, assign\n"
+                     "x, y = Reals('x y')\n"
+                     "vacuous = Theorem('u.vacuous', And(x > 1, x < 0), assign(y, x), y > 5)\n")
+    assert main(["gate", f"{model}:vacuous", "--no-cache", "--falsify-examples", "50"]) == 1
+    assert "assumptions satisfiable" in capsys.readouterr().out

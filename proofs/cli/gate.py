@@ -59,7 +59,9 @@ class GateEntry:
         if self.expected == "proved" and found:
             out.append("the falsifier found a violating run of a proved model: "
                        f"{self.falsify.get('violated')}")
-        if self.expected == "refuted" and self.falsify and not found:
+        if self.falsify.get("note"):  # e.g. unsatisfiable assumptions: a proof of nothing
+            out.append(f"the falsifier could not start a single run: {self.falsify['note']}")
+        elif self.expected == "refuted" and self.falsify and not found:
             out.append(f"the falsifier found no violating run in {self.falsify.get('examples')} examples")
         if self.nonblocking is not None and self.nonblocking["verdict"] != "proved":
             out.append("the vacuity check is not proved: the control step may block")
@@ -116,7 +118,8 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntr
     found = falsify(theorem, Options(max_examples=opts.falsify_examples, seed=opts.seed, database=None,
                                      shrink=False))
     summary = {"verdict": found.verdict, "examples": found.examples, "seconds": round(found.seconds, 3),
-               "violated": found.run.violated if found.run else None, "check": found.check}
+               "violated": found.run.violated if found.run else None, "check": found.check,
+               "note": found.note}
     kernel = _kernel_check(theorem)
     opinion = None
     if opts.cross_check:
