@@ -172,3 +172,43 @@ def test_gate_fails_a_proof_that_became_unknown(tmp_path):
     if "as expected" in out or code == 0:
         pytest.skip("z3 decided the obligation within a millisecond on this machine")
     assert code == 1 and "the proof is unknown" in out
+
+
+def test_list_json_names_every_library_model(capsys):
+    from certiloop.models import library
+
+    assert main(["list", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)
+    assert [r["model"] for r in rows] == library.names()
+    assert {r["expected"] for r in rows} == {"proved", "refuted"}
+
+
+def test_a_family_name_selects_all_its_models(capsys):
+    from certiloop.models import library
+
+    assert main(["prove", "textbook", "--jobs", "1"]) == 1  # it holds refuted designs
+    out = capsys.readouterr().out
+    family = [n for n in library.names() if n.startswith("textbook.")]
+    assert len(family) >= 2 and all(f"{n}:" in out for n in family)
+
+
+def test_an_empty_selection_is_bad_input(tmp_path, capsys):
+    (tmp_path / "pyproject.toml").write_text("[tool.certiloop]\nmodels = []\n")
+    cwd = os.getcwd()
+    os.chdir(tmp_path)
+    try:
+        assert main(["gate"]) == 2
+    finally:
+        os.chdir(cwd)
+    assert "no model selected" in capsys.readouterr().err
+
+
+def test_a_model_file_imports_its_sibling_module(tmp_path):
+    (tmp_path / "limits.py").write_text("LIMIT = 5\n")
+    (tmp_path / "m.py").write_text(textwrap.dedent("""
+        from limits import LIMIT
+        from certiloop.models import Reals, Theorem, assign
+        x, y = Reals("x y")
+        t = Theorem("u.sibling", x >= LIMIT, assign(y, x), y >= LIMIT)
+    """))
+    assert main(["prove", f"{tmp_path / 'm.py'}:t", "--jobs", "1"]) == 0

@@ -11,6 +11,22 @@ from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
 
 
+def load_all(specs: list[str]) -> list[Theorem]:
+    """Every MODEL argument resolved, in order; a family name (`sbs`) selects all its models.
+    A selection that matches nothing is bad input."""
+    theorems: list[Theorem] = []
+    for spec in specs:
+        family = [n for n in library.names() if n.startswith(f"{spec}.")] if "." not in spec else []
+        if family:
+            theorems.extend(library.get(n) for n in family)
+        else:
+            theorems.append(load(spec))
+    if not theorems:
+        raise ModelError("no model selected: name a library model (certiloop list), a family, or "
+                         "path/to/file.py:THEOREM")
+    return theorems
+
+
 def load(spec: str) -> Theorem:
     if ":" in spec and (spec.split(":", 1)[0].endswith(".py") or "/" in spec):
         return _from_file(*spec.rsplit(":", 1))
@@ -31,6 +47,8 @@ def _from_file(path_text: str, attr: str) -> Theorem:
         raise ModelError(f"{path_text}: cannot be loaded as a Python module")
     module = importlib.util.module_from_spec(spec)
     sys.modules[module_name] = module
+    folder = str(path.resolve().parent)  # a model file may import its sibling modules
+    sys.path.insert(0, folder)
     try:
         spec.loader.exec_module(module)
     except ModelError as exc:
@@ -39,6 +57,8 @@ def _from_file(path_text: str, attr: str) -> Theorem:
         raise ModelError(f"{path_text}:{exc.lineno}: syntax error: {exc.msg}") from None
     except Exception as exc:  # the user's module failed while importing
         raise ModelError(f"{path_text}: failed to import: {type(exc).__name__}: {exc}") from None
+    finally:
+        sys.path.remove(folder)
     if not hasattr(module, attr):
         found = [k for k, v in vars(module).items() if isinstance(v, Theorem) or
                  (callable(v) and getattr(v, "__module__", None) == module_name and not k.startswith("_"))]

@@ -28,8 +28,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
-    sub.add_parser("list", help="models in the library and their expected verdicts",
-                   description="List the library's models with their expected verdicts.")
+    listing = sub.add_parser("list", help="models in the library and their expected verdicts",
+                             description="List the library's models with their expected verdicts.")
+    listing.add_argument("--json", action="store_true",
+                         help="print [{\"model\", \"expected\", \"description\"}] instead of a table")
 
     prove = sub.add_parser(
         "prove", help="generate and discharge proof obligations",
@@ -171,7 +173,7 @@ def _main(argv: list[str] | None) -> int:
         build_parser().print_help()
         return EXIT_BAD_INPUT
     if args.command == "list":
-        return cmd_list()
+        return cmd_list(args.json)
     if args.command == "prove":
         return cmd_prove(args)
     if args.command == "gate":
@@ -191,11 +193,15 @@ def console(stderr: bool = False):
     return probe if probe.is_terminal else Console(stderr=stderr, width=140)
 
 
-def cmd_list() -> int:
+def cmd_list(as_json: bool = False) -> int:
     from rich.table import Table
 
     from certiloop.models import library
 
+    if as_json:
+        print(json.dumps([{"model": n, "expected": library.get(n).expected,
+                           "description": library.get(n).description} for n in library.names()], indent=2))
+        return EXIT_OK
     table = Table()
     table.add_column("model", no_wrap=True)
     table.add_column("expected", no_wrap=True)
@@ -226,12 +232,12 @@ def cmd_gate(args: argparse.Namespace) -> int:
 
     from certiloop.proofs.cli.gate import GateOptions, run_gate
     from certiloop.proofs.cli.gate_report import junit, markdown
-    from certiloop.proofs.cli.loading import load, project_models
+    from certiloop.proofs.cli.loading import load_all, project_models
     from certiloop.proofs.cli.report import verdict_text
     from certiloop.proofs.engine.cache import Cache
     from certiloop.proofs.engine.prover import Prover
 
-    theorems = [load(spec) for spec in (args.models or project_models())]
+    theorems = load_all(args.models or project_models())
     cache = None if args.no_cache else Cache(Path(args.cache) if args.cache else None)
     opts = GateOptions(falsify_examples=args.falsify_examples, cross_check=args.cross_check)
     out, err = console(), Console(stderr=True)
@@ -289,9 +295,9 @@ def _budget(args: argparse.Namespace):
 
 def cmd_prove(args: argparse.Namespace) -> int:
     _check_common(args)
-    from certiloop.proofs.cli.loading import load
+    from certiloop.proofs.cli.loading import load_all
 
-    theorems = [load(spec) for spec in args.models]  # all bad names fail before any work
+    theorems = load_all(args.models)  # all bad names fail before any work
 
     from rich.console import Console
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -414,9 +420,9 @@ def cmd_falsify(args: argparse.Namespace) -> int:
             import matplotlib  # noqa: F401
         except ImportError:
             raise BadInput("--plot needs matplotlib: pip install 'certiloop[plot]'") from None
-    from certiloop.proofs.cli.loading import load
+    from certiloop.proofs.cli.loading import load_all
 
-    theorems = [load(spec) for spec in args.models]
+    theorems = load_all(args.models)
 
     from rich.console import Console
 
