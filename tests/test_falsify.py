@@ -3,6 +3,7 @@ found for proved designs, prover counterexamples replayed independently."""
 
 import json
 import math
+import os
 
 import pytest
 
@@ -118,11 +119,15 @@ def test_immediate_control_crosses_the_buffer_within_one_step():
     assert after.step == before.step + 1 and after.time - before.time <= after.state["e"] + 1e-12
 
 
+# 500 runs per proved design by default; the deep run (HYPOTHESIS_PROFILE=deep) tries 5000
+PROVED_RUNS = 5000 if os.environ.get("HYPOTHESIS_PROFILE") == "deep" else 500
+
+
 @pytest.mark.parametrize("name", PROVED_SBS)
-def test_proved_designs_have_no_counterexample_in_2000_examples(name):
-    result = _search(name, max_examples=2000, families=(1, 8))
+def test_proved_designs_have_no_counterexample(name):
+    result = _search(name, max_examples=PROVED_RUNS, families=(1, 8))
     assert not result.found, result.run and result.run.violated
-    assert result.examples >= 2000
+    assert result.examples >= PROVED_RUNS
 
 
 def test_float_noise_at_a_boundary_is_not_a_counterexample():
