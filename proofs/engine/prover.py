@@ -200,6 +200,11 @@ class Prover:
     def _run(self, fn, *args):
         return self._submit(fn, *args).result()
 
+    def submit(self, fn, *args) -> Future:
+        """Run `fn(*args)` on the prover's workers (in this process with one job), e.g. the
+        gate's falsifier beside the proof: `fn` and its arguments must pickle."""
+        return self._submit(fn, *args)
+
     def _submit(self, fn, *args) -> Future:
         pool = self._executor()
         if pool is not None:
