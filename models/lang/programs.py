@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from certiloop.models.lang.latex import latex_program
 from certiloop.models.lang.printing import show_program
 from certiloop.models.lang.terms import (
     BOOL,
@@ -49,6 +50,10 @@ class Program:
         return show_program(self)
 
     __repr__ = __str__
+
+    def _repr_latex_(self) -> str:
+        """Notebook display: the program in dL notation (annotations left out)."""
+        return f"${latex_program(self)}$"
 
 
 def _target_root(target: Node) -> Node:

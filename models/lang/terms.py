@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Iterable
 
+from certiloop.models.lang.latex import latex
 from certiloop.models.lang.printing import show
 
 
@@ -124,6 +125,10 @@ class Node:
         return show(self)
 
     __repr__ = __str__
+
+    def _repr_latex_(self) -> str:
+        """Notebook display: the term or formula as LaTeX math."""
+        return f"${latex(self)}$"
 
     @property
     def name(self) -> str:

@@ -5,8 +5,10 @@ from __future__ import annotations
 import hashlib
 import re
 from dataclasses import dataclass, field
+from html import escape
 from typing import Callable
 
+from certiloop.models.lang.latex import latex_claim
 from certiloop.models.lang.printing import show, show_program
 from certiloop.models.lang.programs import (
     ODE,
@@ -93,6 +95,20 @@ class Theorem:
         """A hash of `canonical`: changes whenever the claim does (a sort, an invariant, ...)."""
         return hashlib.sha256(self.canonical.encode()).hexdigest()[:16]
 
+    @property
+    def latex(self) -> str:
+        """The claim `assumptions → [program] guarantee` as LaTeX math (no `$`)."""
+        return latex_claim(self.assumptions, self.program, self.guarantee)
+
+    def _repr_latex_(self) -> str:
+        """Notebook display: the claim in dL notation."""
+        return f"$${self.latex}$$"
+
+    def _repr_html_(self) -> str:
+        """Notebook display: name, expected verdict, description and the claim as `text`."""
+        about = f" — {escape(self.description)}" if self.description else ""
+        return (f'<div class="certiloop-theorem"><p><b>{escape(self.name)}</b> (expected '
+                f"{escape(self.expected)}){about}</p><pre>{escape(self.text)}</pre></div>")
 
 
 # --------------------------------------------------------------------------- well-formedness
