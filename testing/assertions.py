@@ -87,16 +87,20 @@ def assert_proved(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | Non
 
     The message names the model and its verdict, lists the first obligations not proved
     (path, reason, counterexample) and shows the violating run if one was found. falsify=N
-    also runs the falsifier for N examples and fails if it finds a violating run."""
+    also runs the falsifier for N examples and fails if it finds a violating run, or cannot
+    start a single run (assumptions no state meets make the proof vacuous)."""
     theorem = _theorem(theorem)
     result = prove(theorem, rlimit=rlimit, timeout=timeout, jobs=jobs)
     if result.verdict != "proved":
         raise AssertionError(_message(result, "proved"))
     if falsify:
-        found = _falsify(theorem, falsify)
+        found = _falsify(theorem, falsify, shrink=True)  # a bug report: make the run short
         if found.found:
             raise AssertionError(f"{result.model} is proved, yet the falsifier found a violating run "
                                  f"(a certiloop bug; please report it):\n{_falsification_text(found)}")
+        if found.note:  # as the gate: a proof about no runs at all is vacuous
+            raise AssertionError(f"{result.model} is proved, but the falsifier could not start a single "
+                                 f"run: {found.note}")
     return result
 
 
@@ -111,7 +115,7 @@ def assert_refuted(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | No
         raise AssertionError(_message(result, "refuted"))
     found = None
     if falsify:
-        found = _falsify(theorem, falsify)
+        found = _falsify(theorem, falsify, shrink=False)  # a confirmation: the first run will do
         if not found.found:
             note = f": {found.note}" if found.note else ""
             raise AssertionError(f"{result.model} is refuted by the prover, but the falsifier found no "
@@ -140,10 +144,10 @@ def _theorem(theorem: Theorem | Callable[[], Theorem]) -> Theorem:
     return built
 
 
-def _falsify(theorem: Theorem, examples: int) -> Falsification:
+def _falsify(theorem: Theorem, examples: int, shrink: bool) -> Falsification:
     from certiloop.falsify.search import Options, falsify
 
-    return falsify(theorem, Options(max_examples=examples, seed=0, database=None))
+    return falsify(theorem, Options(max_examples=examples, seed=0, database=None, shrink=shrink))
 
 
 def _falsification_text(found: Falsification) -> str:

@@ -66,6 +66,29 @@ def test_falsify_option_runs_the_falsifier_too():
     assert assert_proved(textbook.cart_forward, falsify=50).verdict == "proved"
 
 
+def test_falsify_option_catches_a_vacuous_proof():
+    nothing = Theorem(name="t.vacuous", assumptions=(x > 0) & (x < 0), program=assign(x, x - 1),
+                      guarantee=x >= 0)
+    assert_proved(nothing)  # every state meeting the assumptions (none) is safe
+    with pytest.raises(AssertionError, match=r"^t.vacuous is proved, but the falsifier could not start"):
+        assert_proved(nothing, falsify=20)
+
+
+def test_falsify_option_reports_a_run_the_prover_missed(monkeypatch):
+    """A proof the falsifier contradicts (here a prover forced to say proved) fails, with the
+    falsifier's run."""
+    import certiloop.testing.assertions as assertions
+    from certiloop.proofs.engine import TheoremResult
+
+    monkeypatch.setattr(assertions, "prove", lambda theorem, **_: TheoremResult(
+        theorem.name, "proved", theorem.expected, 0.0, []))
+    with pytest.raises(AssertionError) as info:
+        assert_proved(textbook.cart_may_brake, falsify=200)
+    message = str(info.value)
+    assert message.startswith("textbook.cart_may_brake is proved, yet the falsifier found a violating run")
+    assert "counterexample after" in message and "violated after control step" in message
+
+
 def test_budget_options_reach_the_prover():
     # one z3 resource unit cannot prove anything: a tiny rlimit turns proved into unknown
     with pytest.raises(AssertionError, match="is unknown, not proved"):
