@@ -2,6 +2,7 @@
 proof results and violating runs as HTML."""
 
 import re
+from html import escape as html_escape
 
 from certiloop.models import (
     And,
@@ -64,6 +65,7 @@ def test_library_theorems_give_well_formed_latex_with_their_pieces():
         assert piece in text, piece
     from certiloop.models.library import get, names
     assert all(balanced(get(n)._repr_latex_()) for n in names())
+    assert not [n for n in names() if "<" in outside_tags(get(n)._repr_html_())]
 
 
 def test_formulas_and_programs_have_latex_too():
@@ -81,7 +83,10 @@ def test_formulas_and_programs_have_latex_too():
 def test_theorem_html_escapes_and_shows_name_expectation_and_claim():
     html = small()._repr_html_()
     assert "<b>t.small</b> (expected proved) — a &lt;tiny&gt; one" in html
-    assert "?y &lt; 0;" in html and "x&#x27; = v &amp; x &lt;= 5" in html
+    assert ("<p><i>x</i> ≥ 0 ∧ <i>v</i> &gt; 0 → [{{<i>x</i> := <i>x</i> + <i>v</i> ∪ <i>y</i> := *; "
+            "?<i>y</i> &lt; 0}; {<i>x</i>′ = <i>v</i> &amp; <i>x</i> ≤ 5}}<sup>*</sup>] "
+            "<i>x</i> ≥ 0</p>") in html
+    assert "<pre>" + html_escape(small().text) + "</pre>" in html
     assert "<" not in outside_tags(html)
 
 

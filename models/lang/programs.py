@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from certiloop.models.lang.latex import latex_program
+from certiloop.models.lang import notation
 from certiloop.models.lang.printing import show_program
 from certiloop.models.lang.terms import (
     BOOL,
@@ -53,7 +53,7 @@ class Program:
 
     def _repr_latex_(self) -> str:
         """Notebook display: the program in dL notation (annotations left out)."""
-        return f"${latex_program(self)}$"
+        return f"${notation.program(self)}$"
 
 
 def _target_root(target: Node) -> Node:

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Iterable
 
-from certiloop.models.lang.latex import latex
+from certiloop.models.lang import notation
 from certiloop.models.lang.printing import show
 
 
@@ -138,7 +138,7 @@ class Node:
 
     def _repr_latex_(self) -> str:
         """Notebook display: the term or formula as LaTeX math."""
-        return f"${latex(self)}$"
+        return f"${notation.term(self)}$"
 
     @property
     def name(self) -> str:

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from html import escape
 from typing import Callable
 
-from certiloop.models.lang.latex import latex_claim
+from certiloop.models.lang import notation
 from certiloop.models.lang.printing import show, show_program
 from certiloop.models.lang.programs import (
     ODE,
@@ -112,17 +112,20 @@ class Theorem:
     @property
     def latex(self) -> str:
         """The claim `assumptions → [program] guarantee` as LaTeX math (no `$`)."""
-        return latex_claim(self.assumptions, self.program, self.guarantee)
+        return notation.claim(self.assumptions, self.program, self.guarantee)
 
     def _repr_latex_(self) -> str:
         """Notebook display: the claim in dL notation."""
         return f"$${self.latex}$$"
 
     def _repr_html_(self) -> str:
-        """Notebook display: name, expected verdict, description and the claim as `text`."""
+        """Notebook display: name, expected verdict, description, the claim in dL notation
+        and, folded, as `text` (with the invariants and branch labels)."""
         about = f" — {escape(self.description)}" if self.description else ""
+        formula = notation.claim(self.assumptions, self.program, self.guarantee, notation.HTML)
         return (f'<div class="certiloop-theorem"><p><b>{escape(self.name)}</b> (expected '
-                f"{escape(self.expected)}){about}</p><pre>{escape(self.text)}</pre></div>")
+                f"{escape(self.expected)}){about}</p><p>{formula}</p><details><summary>as text, with "
+                f"annotations</summary><pre>{escape(self.text)}</pre></details></div>")
 
 
 # --------------------------------------------------------------------------- well-formedness
