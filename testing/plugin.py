@@ -30,14 +30,26 @@ def pytest_addoption(parser: pytest.Parser) -> None:
                   default="0")
 
 
+def _is_models_file(file_path: Path, config: pytest.Config) -> bool:
+    """Named like a models file, and not a test module (tests/test_models.py is pytest's)."""
+    return (file_path.suffix == ".py"
+            and any(fnmatch(file_path.name, p) for p in config.getini("certiloop_model_files"))
+            and not any(fnmatch(file_path.name, p) for p in config.getini("python_files")))
+
+
 def pytest_collect_file(file_path: Path, parent: pytest.Collector) -> pytest.Collector | None:
-    config = parent.config
-    if file_path.suffix != ".py" or not any(fnmatch(file_path.name, p)
-                                            for p in config.getini("certiloop_model_files")):
-        return None
-    if any(fnmatch(file_path.name, p) for p in config.getini("python_files")):
-        return None  # a test module (tests/test_models.py): pytest's own collector owns it
+    if parent.session.isinitpath(file_path) or not _is_models_file(file_path, parent.config):
+        return None  # a file named on the command line comes through pytest_pycollect_makemodule
     return ModelsFile.from_parent(parent, path=file_path)
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_pycollect_makemodule(module_path: Path, parent: pytest.Collector) -> pytest.Module | None:
+    """`pytest my_models.py`: pytest collects a file named on the command line as a test
+    module; make it a models file instead, so that an imported `test` is not a test."""
+    if _is_models_file(module_path, parent.config):
+        return ModelsFile.from_parent(parent, path=module_path)
+    return None
 
 
 class ModelsFile(pytest.Module):

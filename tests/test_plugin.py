@@ -67,6 +67,15 @@ def test_a_wrong_expectation_fails_with_the_counterexample(pytester, run):
     assert "assertions.py" not in result.stdout.str()  # the message, not our traceback
 
 
+def test_a_models_file_named_on_the_command_line_is_collected_once(pytester, run):
+    # pytest makes a test module of any file named on the command line; its `test` (the
+    # DSL's ?Q) must not become a test asking for a fixture `cond`
+    pytester.makepyfile(cart_models="from certiloop.models import test\n" + MODELS)
+    result = run("cart_models.py", "-v")
+    result.assert_outcomes(passed=2)
+    assert "fixture 'cond' not found" not in result.stdout.str()
+
+
 def test_k_selects_by_theorem_name(pytester, run):
     pytester.makepyfile(cart_models=MODELS)
     run("-k", "cart_may_brake").assert_outcomes(passed=1)
