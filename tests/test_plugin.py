@@ -76,6 +76,18 @@ def test_a_models_file_named_on_the_command_line_is_collected_once(pytester, run
     assert "fixture 'cond' not found" not in result.stdout.str()
 
 
+def test_a_user_test_module_may_import_the_dsl_test(pytester, run):
+    pytester.makepyfile(test_mine="""
+        from certiloop.models import Reals, Theorem, assign, test
+        from certiloop.testing import assert_proved
+        x, = Reals("x")
+        def test_guarded_step_is_safe():
+            assert_proved(Theorem(name="g", assumptions=x >= 0,
+                                  program=test(x >= 1) >> assign(x, x - 1), guarantee=x >= 0))
+    """)
+    run("-v").assert_outcomes(passed=1)
+
+
 def test_k_selects_by_theorem_name(pytester, run):
     pytester.makepyfile(cart_models=MODELS)
     run("-k", "cart_may_brake").assert_outcomes(passed=1)

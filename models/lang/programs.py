@@ -221,6 +221,9 @@ def test(cond: Any) -> Test:
     return Test(formula(cond))
 
 
+test.__test__ = False  # imported into a user's test module, it is not a pytest test
+
+
 def seq(*parts: Program) -> Program:
     """a; b; c: the programs one after another (nested sequences flatten):
     `seq(ctrl, assign(t, 0), plant)`; `a >> b` is the same."""
