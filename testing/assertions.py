@@ -66,12 +66,13 @@ class Counterexample:
 
 
 def prove(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None,
-          timeout: float | None = None, jobs: int = 1) -> TheoremResult:
+          timeout: float | None = None, jobs: int | None = 1) -> TheoremResult:
     """Prove `theorem` (or a zero-argument function returning one) and return the result.
 
     rlimit: z3 resource units per obligation form (default 2,000,000, as the CLI); timeout:
     the per-call safety net in seconds (default 60); jobs: worker processes (default 1, so a
-    test suite run in parallel by pytest-xdist does not oversubscribe the machine)."""
+    test suite run in parallel by pytest-xdist does not oversubscribe the machine; None: one
+    per core)."""
     from certiloop.proofs.engine.budget import Budget
     from certiloop.proofs.engine.prover import Prover
 
@@ -82,7 +83,7 @@ def prove(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None
 
 
 def assert_proved(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None,
-                  timeout: float | None = None, jobs: int = 1, falsify: int = 0) -> TheoremResult:
+                  timeout: float | None = None, jobs: int | None = 1, falsify: int = 0) -> TheoremResult:
     """Fail unless the theorem is proved; return the `TheoremResult`.
 
     The message names the model and its verdict, lists the first obligations not proved
@@ -105,7 +106,7 @@ def assert_proved(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | Non
 
 
 def assert_refuted(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None,
-                   timeout: float | None = None, jobs: int = 1, falsify: int = 0) -> Counterexample:
+                   timeout: float | None = None, jobs: int | None = 1, falsify: int = 0) -> Counterexample:
     """Fail unless the theorem is refuted by a confirmed violating run; return that run as
     a `Counterexample` for further assertions. A proved or `unknown` theorem fails, with the
     reason. falsify=N also runs the falsifier for N examples and fails if it finds no run."""
