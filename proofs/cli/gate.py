@@ -147,8 +147,8 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
 def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=None,
              on_model=None) -> list[GateEntry]:
     entries = []
-    keys = [cache.key("gate", f"{t.canonical}\n{opts.text()}/rlimit={prover.budget.rlimit}") if cache else None
-            for t in theorems]
+    setting = f"{opts.text()}/rlimit={prover.budget.rlimit}"
+    keys = [cache.key("gate", f"{t.canonical}\n{setting}") if cache else None for t in theorems]
     hits = [cache.get(key) if cache else None for key in keys]
     todo = [i for i, hit in enumerate(hits) if hit is None]
     # the next model's falsifier is queued before this model's obligations, so the workers

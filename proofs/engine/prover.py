@@ -48,6 +48,11 @@ class TheoremResult:
     def met_expectation(self) -> bool:
         return self.verdict == self.expected
 
+    def _repr_html_(self) -> str:  # notebook display
+        from certiloop.proofs.engine.display import result_html
+
+        return result_html(self.to_json())
+
     def to_json(self) -> dict[str, Any]:
         return {
             "model": self.model,
