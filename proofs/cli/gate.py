@@ -97,6 +97,10 @@ class GateEntry:
         return cls(**keep, cached=True)
 
 
+REFUTED_FACTOR = 10  # a model expected refuted may take 10x the examples: the search stops at
+# its first violating run, so this costs only when there is none (some seeds need 500+)
+
+
 @dataclass
 class GateOptions:
     falsify_examples: int = 300
@@ -112,8 +116,8 @@ def falsify_task(theorem: Theorem, opts: GateOptions):
     runs beside it (a seeded search: the same answer in any process)."""
     from certiloop.falsify.search import Options, falsify
 
-    return falsify(theorem, Options(max_examples=opts.falsify_examples, seed=opts.seed, database=None,
-                                    shrink=False))
+    examples = opts.falsify_examples * (REFUTED_FACTOR if theorem.expected == "refuted" else 1)
+    return falsify(theorem, Options(max_examples=examples, seed=opts.seed, database=None, shrink=False))
 
 
 def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,

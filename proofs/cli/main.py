@@ -105,7 +105,8 @@ def build_parser() -> argparse.ArgumentParser:
     gate.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
                       "(tcp://host:8786; needs certiloop[distributed])")
     gate.add_argument("--falsify-examples", metavar="N", type=int, default=300,
-                      help="falsifier runs per model (default 300)")
+                      help="falsifier runs per model (default 300; a model expected "
+                      "refuted may take 10x as many: the search stops at its first violating run)")
     gate.add_argument("--cache", metavar="DIR", help="proof cache folder (default .certiloop/cache, "
                       "or $CERTILOOP_CACHE)")
     gate.add_argument("--no-cache", action="store_true", help="prove everything afresh")
