@@ -134,9 +134,13 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntr
 
 
 def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=None,
-             on_model=None) -> list[GateEntry]:
-    entries = []
+             on_model=None, on_start=None, into: list[GateEntry] | None = None) -> list[GateEntry]:
+    """Gate each theorem in order; each entry is appended to `into` as soon as it is done
+    (so an interrupted gate still has the finished ones to report)."""
+    entries = [] if into is None else into
     for theorem in theorems:
+        if on_start:
+            on_start(theorem.name)
         key = (cache.key("gate", f"{theorem.canonical}\n{opts.text()}/rlimit={prover.budget.rlimit}")
                if cache else None)
         hit = cache.get(key) if cache else None
