@@ -7,6 +7,7 @@ from __future__ import annotations
 import io
 import os
 import signal
+import sys
 import textwrap
 from pathlib import Path
 from typing import Callable
@@ -71,7 +72,10 @@ class ModelProgress:
             from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
             self.bar = Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                                TimeElapsedColumn(), console=err, transient=True)
+                                TimeElapsedColumn(), console=err, transient=True,
+                                # results printed meanwhile go above the bar when stdout is this
+                                # terminal too, and straight to stdout when it is not
+                                redirect_stdout=sys.stdout.isatty(), redirect_stderr=False)
             self.task = self.bar.add_task("", total=None)
 
     def __enter__(self) -> "ModelProgress":
