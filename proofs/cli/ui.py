@@ -119,8 +119,8 @@ def check_output(flag: str, name: str | None, folder: bool = False, stdout_ok: b
     path = Path(name)
     if folder:
         existing = next((p for p in (path, *path.parents) if p.exists()), Path("."))
-        if existing == path and not path.is_dir():
-            raise OutputPathError(f"{flag} {name}: it is a file, not a folder")
+        if not existing.is_dir():
+            raise OutputPathError(f"{flag} {name}: {existing} is a file, not a folder")
         if not os.access(existing, os.W_OK):
             raise OutputPathError(f"{flag} {name}: {existing} is not writable")
         return
