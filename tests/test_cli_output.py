@@ -386,3 +386,9 @@ def test_falsify_keeps_hypothesis_files_under_certiloop(tmp_path):
     assert proc.returncode == 1, proc.stderr
     assert not (tmp_path / ".hypothesis").exists()
     assert (tmp_path / ".certiloop" / "hypothesis").is_dir()
+
+
+def test_no_fix_is_suggested_when_a_run_shows_the_design_is_unsafe(capsys):
+    assert main(["prove", "sbs.ctrl1_broken", "--jobs", "1"]) == 1
+    out = capsys.readouterr().out
+    assert "sbs.ctrl1_broken: refuted" in out and "rule failed" in out and "hint:" not in out

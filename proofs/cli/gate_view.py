@@ -95,7 +95,7 @@ def _show_failed_obligations(out: Console, e: GateEntry, limit: int | None) -> N
         rule = o.get("rule", "")
         why = f" — {o['reason']}" if o.get("reason") else ""
         ui.say(out, f"    {o['id']} {o['path']}: {label(o['verdict'], rule)}{why}", indent="    ")
-        if hint(o["verdict"], rule):
+        if e.verdict != "refuted" and hint(o["verdict"], rule):
             ui.say(out, f"      hint: {hint(o['verdict'], rule)}", indent="  ")
     if limit is not None and len(failed) > limit:
         ui.say(out, f"    ... and {len(failed) - limit} more not proved (--verbose shows them)")

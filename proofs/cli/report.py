@@ -73,7 +73,7 @@ def show_result(console: Console, result: TheoremResult, level: int = ui.NORMAL)
     elif failing and level == ui.NORMAL:
         console.print(f"  {n - len(failing)} obligations proved; not proved:")
     for o in result.obligations if level == ui.VERBOSE else failing:
-        show_obligation(console, o)
+        show_obligation(console, o, hints=result.verdict != "refuted")
     if result.nonblocking is not None:
         show_nonblocking(console, result)
     if "cross_check" in result.extra:
@@ -84,8 +84,9 @@ def show_result(console: Console, result: TheoremResult, level: int = ui.NORMAL)
         show_refutation(console, result)
 
 
-def show_obligation(console: Console, o) -> None:
-    """An obligation's verdict, why, where it fails and, for a failed rule, the fix."""
+def show_obligation(console: Console, o, hints: bool = True) -> None:
+    """An obligation's verdict, why, where it fails and, for a failed rule, the fix (not
+    when a violating run shows the design itself is unsafe: hints=False)."""
     shown = label(o.verdict, o.rule)
     detail = o.reason or (f"by {o.backend}" if o.verdict == "proved" else "")
     ui.say(console, f"  {o.id} {o.path}: {shown}" + (f" — {detail}" if detail else ""), indent="    ")
@@ -93,7 +94,7 @@ def show_obligation(console: Console, o) -> None:
         values = ", ".join(f"{k} = {v}" for k, v in o.counterexample.items())
         where = "the rule fails at" if shown == "rule failed" else "obligation counterexample"
         ui.say(console, f"    {where} ({o.check}): {values}")
-    if hint(o.verdict, o.rule):
+    if hints and hint(o.verdict, o.rule):
         ui.say(console, f"    hint: {hint(o.verdict, o.rule)}")
 
 
