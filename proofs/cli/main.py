@@ -151,12 +151,12 @@ def _need_cvc5(args: argparse.Namespace) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from certiloop.proofs.cli import ui
+    from certiloop.proofs.cli import guards
 
-    restore = ui.on_interrupt_exit_quietly()
+    restore = guards.on_interrupt_exit_quietly()
     try:
         return _main(argv)
-    except (BadInput, ui.OutputPathError) as exc:
+    except (BadInput, guards.OutputPathError) as exc:
         print(f"certiloop: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
@@ -253,10 +253,10 @@ def _check_common(args: argparse.Namespace) -> None:
 def _check_outputs(*outputs: tuple[str, str | None, str]) -> None:
     """(flag, path, what) for every output: 'file', 'file or -' (stdout) or 'folder'. All are
     checked before any work, so a typo does not cost a whole run."""
-    from certiloop.proofs.cli import ui
+    from certiloop.proofs.cli import guards
 
     for flag, name, what in outputs:
-        ui.check_output(flag, name, folder=what == "folder", stdout_ok=what == "file or -")
+        guards.check_output(flag, name, folder=what == "folder", stdout_ok=what == "file or -")
 
 
 def _json_payload(done: list[dict], selected: int, single: bool = True):
