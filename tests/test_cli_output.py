@@ -91,7 +91,7 @@ def test_gate_table_fits_80_columns_and_keeps_names_and_verdicts_whole():
     for e in entries:
         assert has_whole(text, e.model) and has_whole(text, f"{e.verdict} ")
     assert "falsifier" not in text.splitlines()[1]  # folded: the details are under the failure
-    assert has_whole(text, "user.wrong: expected proved; obligations 0/1 proved; step runs proved")
+    assert has_whole(text, "user.wrong: expected: proved; obligations proved: 0/1; step runs: proved")
     wide = render_gate(entries, 200)
     assert "falsifier" in wide and "replay" in wide and "kernel" in wide  # every column fits
 

@@ -79,11 +79,11 @@ def _checks(e: GateEntry) -> dict[str, str]:
 
 
 def _details(e: GateEntry, cross_check: bool) -> list[str]:
-    """The columns the folded table leaves out, as `name value` pairs."""
-    shown = [f"expected {e.expected}", f"obligations {_proved(e)} proved"]
+    """The columns the folded table leaves out, as `name: value` pairs."""
+    shown = [f"expected: {e.expected}", f"obligations proved: {_proved(e)}"]
     for name, value in _checks(e).items():
         if value != "-" and (name != "cvc5" or cross_check):
-            shown.append(f"{name} {value}")
+            shown.append(f"{name}: {value}")
     return shown
 
 

@@ -85,13 +85,14 @@ class ModelProgress:
         """The next model starts."""
         self.index += 1
         if self.bar is not None:
-            self.bar.reset(self.task, total=None,
+            # the bar counts finished models until the model says how many steps it has
+            self.bar.reset(self.task, total=self.total, completed=self.index - 1,
                            description=f"{self.verb} {self.index}/{self.total} models: {name}")
 
     def steps(self, n: int) -> None:
         """The current model has n steps (obligations) to go."""
         if self.bar is not None:
-            self.bar.update(self.task, total=n)
+            self.bar.update(self.task, total=n, completed=0)
 
     def step(self, *_) -> None:
         if self.bar is not None:
