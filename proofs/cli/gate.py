@@ -149,8 +149,10 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
 
 
 def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=None,
-             on_model=None) -> list[GateEntry]:
-    entries = []
+             on_model=None, on_start=None, into: list[GateEntry] | None = None) -> list[GateEntry]:
+    """Gate each theorem in order; each entry is appended to `into` as soon as it is done
+    (so an interrupted gate still has the finished ones to report)."""
+    entries = [] if into is None else into
     setting = f"{opts.text()}/rlimit={prover.budget.rlimit}"
     keys = [cache.key("gate", f"{t.canonical}\n{setting}") if cache else None for t in theorems]
     hits = [cache.get(key) if cache else None for key in keys]
@@ -159,6 +161,8 @@ def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=N
     # always have it to run while the proof waits on its last obligations
     falsifiers = dict.fromkeys(todo[:1], prover.submit(falsify_task, theorems[todo[0]], opts)) if todo else {}
     for i, (theorem, key, hit) in enumerate(zip(theorems, keys, hits)):
+        if on_start:
+            on_start(theorem.name)
         if hit is not None:
             entry = GateEntry.from_json(hit)
             entry.kernel = _kernel_check(theorem)  # the shipped file may have changed: never cached

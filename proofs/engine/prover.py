@@ -124,13 +124,17 @@ class Prover:
     def __enter__(self) -> "Prover":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, exc_type=None, *exc) -> None:
         if self._pool is None:
             return
         client = getattr(self._pool, "_certiloop_client", None)
         if client is not None:  # a Dask executor: leave the cluster running, drop our connection
             self._pool.shutdown(wait=False)
             client.close()
+        elif exc_type is KeyboardInterrupt:  # Ctrl-C: stop the workers, do not wait for them
+            for worker in list((getattr(self._pool, "_processes", None) or {}).values()):
+                worker.terminate()
+            self._pool.shutdown(wait=False, cancel_futures=True)
         else:
             self._pool.shutdown(cancel_futures=True)
 
