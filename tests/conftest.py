@@ -4,8 +4,9 @@ The default run (the README's test command, CI) is derandomised: hypothesis uses
 seed, so a failure reproduces. `HYPOTHESIS_PROFILE=deep python -m pytest -q` is the deep
 run: everything, with random seeds, many more examples, and the tests marked `deep` (add
 `-m deep` for only those); a fixed seed has already hidden a real kernel bug once. CI runs
-the property tests once more under `deep-ci` (random seeds, 200 examples). `dev` is random
-with default sizes.
+the property tests once more under `deep-ci` (random seeds, 200 examples), and the tests
+marked `slow` (`python -m pytest -q -m slow`: derandomised, the mutants of the big models)
+that keep the quick run under 10 minutes. `dev` is random with default sizes.
 """
 
 import os
@@ -28,13 +29,19 @@ DEEP = os.environ.get("HYPOTHESIS_PROFILE") == "deep"
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "deep: slow property and soundness runs (the deep profile)")
+    config.addinivalue_line("markers", "slow: derandomised but slow (mutants of the big models): "
+                            "`python -m pytest -q -m slow`, which CI runs after the quick run")
 
 
 def pytest_collection_modifyitems(config, items):
-    """Tests marked `deep` run only in the deep profile or when asked for with -m deep."""
-    if DEEP or "deep" in (config.getoption("-m") or ""):
-        return
-    skip = pytest.mark.skip(reason="deep run only: HYPOTHESIS_PROFILE=deep python -m pytest -q")
-    for item in items:
-        if "deep" in item.keywords:
-            item.add_marker(skip)
+    """Tests marked `deep` run only in the deep profile or when asked for with -m deep; tests
+    marked `slow` only in the deep profile or with -m slow (CI runs both sets)."""
+    asked = config.getoption("-m") or ""
+    for marker, command in (("deep", "HYPOTHESIS_PROFILE=deep python -m pytest -q"),
+                            ("slow", "python -m pytest -q -m slow")):
+        if DEEP or marker in asked:
+            continue
+        skip = pytest.mark.skip(reason=f"{marker} run only: {command}")
+        for item in items:
+            if marker in item.keywords:
+                item.add_marker(skip)
