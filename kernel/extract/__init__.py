@@ -1383,7 +1383,7 @@ def extract(theorem: Theorem) -> str:
 
 # --------------------------------------------------------------------------- shipped kernels
 
-SHIPPED = {"sbs.ctrl2": "ctrl2.py"}  # model -> module in this package generated from it
+SHIPPED = {"sbs.ctrl2": "ctrl2.py"}  # model -> module in certiloop.kernel generated from it
 
 
 def shipped_drift(model: str) -> str:
@@ -1392,7 +1392,7 @@ def shipped_drift(model: str) -> str:
 
     from certiloop.models import library
 
-    path = Path(__file__).with_name(SHIPPED[model])
+    path = Path(__file__).parent.parent / SHIPPED[model]
     fresh = extract(library.get(model))
     if not path.exists():
         return f"{path} is missing"
