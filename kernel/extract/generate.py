@@ -1,0 +1,30 @@
+"""The entry point `extract(theorem)`: split the model into its control step, choose the code
+shape (vectorised over a family of boundaries, else scalar Python), generate the module, and
+word any refusal as one line that starts with the model's name."""
+
+from __future__ import annotations
+
+from certiloop.kernel.extract.analysis import _split, _uses_families
+from certiloop.kernel.extract.errors import ExtractError
+from certiloop.kernel.extract.scalar import _python
+from certiloop.kernel.extract.vectorised import _vectorised
+from certiloop.models.lang.terms import ModelError
+from certiloop.models.lang.theorem import Theorem
+
+
+def extract(theorem: Theorem) -> str:
+    """Python source of the model's control step (or algorithm): one function `controller`.
+    Raises ExtractError, with a one-line reason, for a shape it cannot extract."""
+    try:
+        step = _split(theorem)
+        if _uses_families(step.parts):
+            if step.where in ("modes", "algorithm"):
+                raise ExtractError("a family of boundaries in a switched plant or an algorithm is not "
+                                   "vectorised")
+            return _vectorised(theorem, step)
+        return _python(theorem, step)
+    except ModelError as exc:
+        message = " ".join(str(exc).split())
+        if not message.startswith(f"{theorem.name}:"):
+            message = f"{theorem.name}: {message}"
+        raise ExtractError(message) from None

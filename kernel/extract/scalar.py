@@ -1,0 +1,553 @@
+"""The scalar code shape: every step without a family (scalar controllers, switched plant
+modes, algorithms over arrays) becomes plain Python with `if`/`elif` chains for choices (nested
+choices flattened into paths, the first enabled one in the model's order taken), `for` loops,
+equations solved into guarded values, and an early return when the model has no run. `_python`
+returns the whole generated module's source, with a docstring written for its outputs."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from certiloop.kernel.extract.analysis import (
+    _conjuncts,
+    _for_range_at,
+    _is_index_sort,
+    _mentions,
+    _mode_choice,
+    _outputs,
+    _parts,
+    _reads,
+    _Step,
+)
+from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
+from certiloop.kernel.extract.roots import _Root, _solutions
+from certiloop.kernel.extract.template import ENTRY, HEADER, RESERVED, SCALAR, _check_names, _tag
+from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
+from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars
+from certiloop.models.lang.theorem import Theorem
+
+MAX_PATHS = 512  # alternatives after flattening nested choices
+
+BLOCKED = "return __BLOCKED__"  # replaced once the outputs are known
+
+
+@dataclass
+class _Path:
+    """One way through an alternative (nested choices flattened): its conditions and
+    helper values in order, then its effects."""
+
+    tag: str
+    label: str
+    items: list[tuple[str, ...]] = field(default_factory=list)  # ("if", code) | ("let", name, code)
+    subst: dict[str, str | None] = field(default_factory=dict)  # variable -> code; None: open here
+    effects: dict[str, str] = field(default_factory=dict)  # variable -> value code
+    cells: list[tuple[str, str, str]] = field(default_factory=list)  # (array, indices, value)
+
+    def fork(self, tag: str, label: str) -> "_Path":
+        return _Path(tag, label, list(self.items), dict(self.subst), dict(self.effects), list(self.cells))
+
+
+class _Python:
+    """Plain scalar Python: `if`/`elif` for choices, `for` loops, early return when the
+    model has no run."""
+
+    def __init__(self, symbols: dict[str, Node], live: set[str], step: Program) -> None:
+        self.symbols = dict(symbols)
+        self.live = set(live)  # read by the plant, the invariant or the guarantee
+        self.step = step  # for what later statements read
+        self.lines: list[str] = []
+        self.depth = 2
+        self.params: dict[str, None] = {}  # read before assigned, in order
+        self.defined: set[str] = set()  # names holding a value in the generated code
+        self.assigned: dict[str, None] = {}  # names the step computes, in order
+        self.opened: dict[str, None] = {}  # top-level `x := *` not yet read or pinned
+        self.inputs: dict[str, None] = {}  # `x := *` read as they are: parameters
+        self.pinned: set[str] = set()  # `x := *` solved for somewhere
+        self.tested: set[str] = set()  # names some test reads
+        self.array_reads: set[str] = set()
+        self.array_writes: dict[str, list[tuple[Node, ...] | None]] = {}  # array -> loop bounds per write
+        self.loops: list[tuple[str, Node, Node]] = []  # enclosing for loops (counter, lo, hi)
+        self.taken: set[str] = set(symbols) | RESERVED
+
+    def line(self, text: str) -> None:
+        self.lines.append("    " * self.depth + text)
+
+    def fresh(self, base: str) -> str:
+        name, n = base, 2
+        while name in self.taken:
+            name, n = f"{base}{n}", n + 1
+        self.taken.add(name)
+        return name
+
+    def read(self, name: str) -> str:
+        if name in self.opened:
+            if name in self.defined:
+                raise ExtractError(f"`{name} := *` gives {name} a new value after the step read it, and no "
+                                   "test pins it down: it would need a second parameter")
+            del self.opened[name]
+            self.inputs[name] = None
+        if name not in self.defined:
+            self.params[name] = None
+            self.defined.add(name)
+        return name
+
+    # ---------------------------------------------------------------- expressions
+    def code(self, n: Node, subst: dict[str, str | None] | None = None, real: bool = False) -> str:
+        subst = subst if subst is not None else {}
+        op = n.op
+        if op == "const":
+            v = n.payload
+            if v.denominator == 1 and n.sort == INT and not real:
+                return str(int(v))
+            return repr(float(v)) if v.denominator != 1 else f"{int(v)}.0"
+        if op == "true":
+            return "True"
+        if op == "false":
+            return "False"
+        if op == "var":
+            name = n.payload
+            if n.sort.is_array or _is_index_sort(n.sort):
+                raise _refuse(n, "a whole array or a family index in a scalar step")
+            if name in subst:
+                if subst[name] is None:
+                    raise ExtractError(f"`{name} := *` is read before a test pins it down; cannot extract")
+                return subst[name]
+            return self.read(name)
+        if op == "select":
+            root = n.args[0].payload
+            if f"[{root}]" in subst:
+                raise _refuse(n, f"reads {root} after the same alternative wrote one of its cells")
+            if any(_is_index_sort(s) for s in n.args[0].sort.domain):
+                raise _refuse(n, "a family over an index sort needs the vectorised form (a foreach)")
+            idx = [self.code(a, subst) for a in n.args[1:]]
+            self.array_reads.add(root)
+            self.read(root)
+            return f"{root}[{', '.join(idx)}]"
+        if op == "cmp":
+            r = any(a.sort == REAL for a in n.args)
+            a = [self.code(x, subst, r) for x in n.args]
+            return f"({a[0]} {n.payload} {a[1]})"
+        if op in ("+", "*", "neg", "/", "^"):
+            r = real or n.sort == REAL or op == "/"
+            a = [self.code(x, subst, r) for x in n.args]
+            if op == "+":
+                return "(" + " + ".join(a) + ")"
+            if op == "*":
+                return "(" + " * ".join(a) + ")"
+            if op == "neg":
+                return f"(-{a[0]})"
+            if op == "/":
+                return f"({a[0]} / {a[1]})"
+            return a[0] if n.payload == 1 else f"({a[0]} ** {n.payload})"
+        a = [self.code(x, subst) for x in n.args]
+        if op == "and":
+            return "(" + " and ".join(a) + ")" if a else "True"
+        if op == "or":
+            return "(" + " or ".join(a) + ")" if a else "False"
+        if op == "not":
+            return f"(not {a[0]})"
+        if op == "implies":
+            return f"((not {a[0]}) or {a[1]})"
+        if op == "iff":
+            return f"({a[0]} == {a[1]})"
+        raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
+
+    def test_code(self, atom: Node, subst: dict[str, str | None] | None = None) -> str:
+        self.tested.update(free_vars(atom))
+        return self.code(atom, subst)
+
+    def root_code(self, root: _Root, subst: dict[str, str | None]) -> str:
+        c = [self.code(p, subst, True) for p in root.parts]
+        if root.kind == "value":
+            return c[0]
+        if root.kind == "sqrt+":
+            return f"np.sqrt({c[0]})"
+        if root.kind == "sqrt-":
+            return f"(-np.sqrt({c[0]}))"
+        sign = "+" if root.kind == "quad+" else "-"
+        return f"(((-{c[0]}) {sign} np.sqrt({c[1]})) / (2.0 * {c[2]}))"
+
+    # ---------------------------------------------------------------- statements
+    def block(self, parts: list[Program] | tuple[Program, ...]) -> None:
+        parts = list(parts)
+        k = 0
+        while k < len(parts):
+            loop = _for_range_at(parts, k)
+            if loop is not None:
+                self.for_loop(parts[k: k + 3], *loop)
+                k += 3
+                continue
+            self.statement(parts[k])
+            k += 1
+
+    def statement(self, q: Program) -> None:
+        if isinstance(q, Seq):
+            self.block(q.parts)
+        elif isinstance(q, Assign) and q.target.op == "var":
+            name = q.target.payload
+            value = self.code(q.value, real=q.target.sort == REAL)
+            self.opened.pop(name, None)
+            self.line(f"{name} = {value}")
+            self.defined.add(name)
+            self.assigned[name] = None
+        elif isinstance(q, Assign):
+            root = q.target.args[0].payload
+            idx = ", ".join(self.code(a) for a in q.target.args[1:])
+            value = self.code(q.value, real=q.target.sort == REAL)
+            self.array_write(root, q.target)
+            self.line(f"{root}[{idx}] = {value}")
+        elif isinstance(q, Havoc) and q.target.op == "var" and not q.target.sort.is_array:
+            self.opened[q.target.payload] = None
+        elif isinstance(q, Havoc):
+            raise _refuse(q, "an array's or a cell's `:= *` is only extracted in a foreach")
+        elif isinstance(q, Test):
+            self.test(q)
+        elif isinstance(q, Choice):
+            self.choice(q)
+        elif isinstance(q, Loop):
+            raise _refuse(q, "only `for` loops (`i := lo; {?i < hi; ...; i := i + 1}*; ?i >= hi`) are "
+                          "extracted: a loop with no exit test repeats any number of times")
+        elif isinstance(q, ODE):
+            raise _refuse(q, "a second ODE inside the control step")
+        else:
+            raise _refuse(q, "unknown statement")
+
+    def array_write(self, root: str, target: Node) -> None:
+        """Note the loop bounds that index a cell write (to allocate a write-only array)."""
+        bounds: list[Node] | None = []
+        counters = {c: (lo, hi) for c, lo, hi in self.loops}
+        for a in target.args[1:]:
+            lo_hi = counters.get(a.payload) if a.op == "var" else None
+            if lo_hi is None or lo_hi[0].op != "const" or lo_hi[0].payload < 0:
+                bounds = None
+                break
+            bounds.append(lo_hi[1])
+        self.array_writes.setdefault(root, []).append(tuple(bounds) if bounds is not None else None)
+        self.defined.add(root)
+        self.assigned[root] = None
+
+    def test(self, q: Test) -> None:
+        for atom in _conjuncts(q.cond):
+            if atom.op == "true":
+                continue
+            target = next((v for v in self.opened if _mentions(atom, v)), None)
+            if target is not None and atom.op == "cmp" and atom.payload == "==":
+                roots = _solutions(atom, target)
+                if len(roots) != 1:
+                    raise _refuse(atom, f"a quadratic equation pins `{target}` outside a choice: which root "
+                                  "to take depends on what follows; put it in a choice's alternative")
+                for g in roots[0].guards:
+                    self.line(f"if not {self.test_code(g)}:")
+                    self.line(f"    {BLOCKED}")
+                self.line(f"{target} = {self.root_code(roots[0], {})}  # from {_brief(atom)}")
+                del self.opened[target]
+                self.pinned.add(target)
+                self.defined.add(target)
+                self.assigned[target] = None
+                continue
+            self.line(f"if not {self.test_code(atom)}:")
+            self.line(f"    {BLOCKED}")
+
+    def for_loop(self, statements: list[Program], var: str, lo: Node, hi: Node, body: list[Program]) -> None:
+        changed = written(Seq(tuple(body))) if body else {}
+        if lo.sort != INT or hi.sort != INT:
+            raise _refuse(statements[1], "a `for` loop's bounds must be Int terms")
+        for name in [var, *free_vars(lo), *free_vars(hi)]:
+            if name in changed:
+                raise _refuse(statements[1], f"the loop's body writes `{name}`, which its counter or bounds "
+                              "read")
+        lo_code, hi_code = self.code(lo), self.code(hi)
+        later = _reads(self.step, skip={id(s) for s in statements})
+        for name, sym in changed.items():  # a value for the case the loop runs zero times
+            if not sym.sort.is_array and name not in self.defined and name in (later | self.live):
+                self.read(name)
+        self.line(f"for {var} in range({lo_code}, {hi_code}):")
+        self.depth += 1
+        self.defined.add(var)
+        self.assigned[var] = None
+        self.loops.append((var, lo, hi))
+        before = len(self.lines)
+        self.block(body)
+        if len(self.lines) == before:
+            self.line("pass")
+        self.loops.pop()
+        self.depth -= 1
+        if var in later or var in self.live:
+            self.line(f"{var} = max({lo_code}, {hi_code})")
+
+    # ---------------------------------------------------------------- choices
+    def choice(self, p: Choice) -> None:
+        paths: list[_Path] = []
+        for k, (alt, label) in enumerate(zip(p.alternatives, p.labels)):
+            paths += self.walk(_parts(alt), [_Path(_tag(label, k), label)])
+            if len(paths) > MAX_PATHS:
+                raise _refuse(p, f"more than {MAX_PATHS} ways through its nested choices")
+        live = self.live | _reads(self.step, skip={id(p)})
+        for path in paths:
+            for v, s in path.subst.items():
+                if s is None and v in live and not v.startswith("["):
+                    raise _refuse(p, f"`{v} := *` in `{path.label}` is never pinned down but read later")
+        commits: list[list[str]] = []
+        changed: dict[str, None] = {}
+        for path in paths:
+            lines = [f"{v} = {value}" for v, value in path.effects.items() if v in live]
+            changed.update((v, None) for v in path.effects if v in live)
+            for root, idx, value in path.cells:
+                lines.append(f"{root}[{idx}] = {value}")
+            commits.append(lines)
+        for v in changed:  # left as it was by some alternative: its value before the choice
+            if v not in self.defined and any(v not in path.effects for path in paths):
+                self.read(v)
+        self.line(f"# choice: {' | '.join(p.labels)}")
+        if all(item[0] == "if" for path in paths for item in path.items):
+            self._elif_chain(paths, commits)
+        else:
+            self._attempts(paths, commits)
+        for v in changed:
+            self.defined.add(v)
+            self.assigned[v] = None
+        for path in paths:
+            for root, _, _ in path.cells:
+                self.defined.add(root)
+                self.assigned[root] = None
+
+    def _elif_chain(self, paths: list[_Path], commits: list[list[str]]) -> None:
+        for n, (path, body) in enumerate(zip(paths, commits)):
+            conds = [item[1] for item in path.items if item[1] != "True"]
+            if not conds:  # always enabled: the alternatives after it are never tried
+                if n + 1 < len(paths):
+                    self.line(f"# never tried: {' | '.join(q.label for q in paths[n + 1:])} "
+                              f"(`{path.label}` is always enabled)")
+                if n == 0:
+                    self.line(f"# {path.label}")
+                    for text in body:
+                        self.line(text)
+                else:
+                    self.line(f"else:  # {path.label}")
+                    for text in body or ["pass"]:
+                        self.line(f"    {text}")
+                return
+            self.line(f"{'if' if n == 0 else 'elif'} {' and '.join(conds)}:  # {path.label}")
+            for text in body or ["pass"]:
+                self.line(f"    {text}")
+        self.line("else:  # no alternative is enabled: the model has no run")
+        self.line(f"    {BLOCKED}")
+
+    def _attempts(self, paths: list[_Path], commits: list[list[str]]) -> None:
+        """Alternatives whose conditions need helper values (a solved `x := *`): each tried
+        in turn, nested ifs so that every value is computed only where its guard holds."""
+        self.line("taken = False")
+        for path, body in zip(paths, commits):
+            self.line(f"# {path.label}")
+            depth = self.depth
+            pending = ["not taken"]
+            for item in path.items:
+                if item[0] == "if":
+                    if item[1] != "True":
+                        pending.append(item[1])
+                    continue
+                if pending:
+                    self.line(f"if {' and '.join(pending)}:")
+                    self.depth += 1
+                    pending = []
+                self.line(f"{item[1]} = {item[2]}")
+            if pending:
+                self.line(f"if {' and '.join(pending)}:")
+                self.depth += 1
+            for text in body:
+                self.line(text)
+            self.line("taken = True")
+            self.depth = depth
+        self.line("if not taken:  # no alternative is enabled: the model has no run")
+        self.line(f"    {BLOCKED}")
+
+    def walk(self, statements: list[Program], paths: list[_Path]) -> list[_Path]:
+        for q in statements:
+            paths = [r for path in paths for r in self.in_path(q, path)]
+            if len(paths) > MAX_PATHS:
+                raise _refuse(q, f"more than {MAX_PATHS} ways through nested choices")
+        return paths
+
+    def in_path(self, q: Program, path: _Path) -> list[_Path]:
+        if isinstance(q, Seq):
+            return self.walk(list(q.parts), [path])
+        if isinstance(q, Choice):
+            out: list[_Path] = []
+            for k, (alt, label) in enumerate(zip(q.alternatives, q.labels)):
+                sub = path.fork(f"{path.tag}_{_tag(label, k)}", f"{path.label} / {label}")
+                out += self.walk(_parts(alt), [sub])
+            return out
+        if isinstance(q, Test):
+            paths = [path]
+            for atom in _conjuncts(q.cond):
+                if atom.op != "true":
+                    paths = [r for p in paths for r in self.atom_in_path(atom, p)]
+            return paths
+        if isinstance(q, Havoc) and q.target.op == "var" and not q.target.sort.is_array:
+            path.subst[q.target.payload] = None
+            path.effects.pop(q.target.payload, None)
+            return [path]
+        if isinstance(q, Assign) and q.target.op == "var":
+            name = q.target.payload
+            value = self.code(q.value, path.subst, q.target.sort == REAL)
+            path.subst[name] = value
+            path.effects[name] = value
+            return [path]
+        if isinstance(q, Assign):
+            root = q.target.args[0].payload
+            idx = ", ".join(self.code(a, path.subst) for a in q.target.args[1:])
+            path.cells.append((root, idx, self.code(q.value, path.subst, q.target.sort == REAL)))
+            path.subst[f"[{root}]"] = None
+            self.array_write(root, q.target)
+            return [path]
+        raise _refuse(q, "only tests, assignments, `x := *` and choices are extracted inside a choice")
+
+    def atom_in_path(self, atom: Node, path: _Path) -> list[_Path]:
+        target = next((v for v, s in path.subst.items() if s is None and not v.startswith("[")
+                       and _mentions(atom, v)), None)
+        if target is None:
+            target = next((v for v in self.opened if v not in path.subst and _mentions(atom, v)
+                           and atom.op == "cmp" and atom.payload == "=="), None)
+        if target is None:
+            path.items.append(("if", self.test_code(atom, path.subst)))
+            return [path]
+        roots = _solutions(atom, target)
+        out = []
+        for root in roots:
+            r = path if len(roots) == 1 else path.fork(path.tag, path.label + root.note)
+            for g in root.guards:
+                r.items.append(("if", self.test_code(g, r.subst)))
+            name = self.fresh(f"{target}_{r.tag}")
+            r.items.append(("let", name, f"{self.root_code(root, r.subst)}  # from {_brief(atom)}"))
+            r.subst[target] = name
+            r.effects[target] = name
+            self.pinned.add(target)
+            out.append(r)
+        return out
+
+
+def _python(theorem: Theorem, step: "_Step") -> str:
+    parts = list(step.parts)
+    symbols = {**free_vars(theorem.assumptions), **theorem.program.symbols(), **free_vars(theorem.guarantee)}
+    live = set(step.reads)
+    rates: list[str] = []
+    if step.where == "modes":
+        modes, rates = _mode_choice(step.plant, symbols)
+        parts.append(modes)
+        live |= set(rates)
+        symbols.update((r, Var(r, REAL)) for r in rates)
+    py = _Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
+    py.block(parts)
+    if py.pinned & set(py.inputs):
+        both = sorted(py.pinned & set(py.inputs))
+        raise ExtractError(f"`{both[0]} := *` is pinned by an equation on some paths and read as an input "
+                           "on others; cannot extract")
+    outputs = rates or _outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
+    params = list(py.params)
+    _check_names(theorem, [*params, *py.assigned])
+    sort = lambda v: symbols[v].sort  # noqa: E731
+    scalars = [v for v in params if not sort(v).is_array]
+    arrays = [v for v in params if sort(v).is_array]
+    allocated: dict[str, str] = {}
+    changed = written(theorem.program)
+    for name, writes in py.array_writes.items():
+        if name in params or name in py.array_reads or name in free_vars(theorem.assumptions):
+            continue
+        if None in writes or len({tuple(b.key for b in w) for w in writes}) != 1 \
+                or any(v in changed for b in writes[0] for v in free_vars(b)):
+            arrays.append(name)  # cells it does not write keep the caller's values
+            params.append(name)
+            continue
+        dims = [f"max({py.code(b)}, 0)" for b in writes[0]]
+        allocated[name] = f"({dims[0]},)" if len(dims) == 1 else f"({', '.join(dims)})"
+    params = scalars + arrays  # scalars first, then arrays
+    what = "algorithm" if step.where == "algorithm" else "discrete controller"
+    imports = "import operator\n\nimport numpy as np" if any(sort(v) == INT for v in scalars) else \
+        "import numpy as np"
+    src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
+                        inputs=scalars, families=arrays, what=what, how=SCALAR[step.where], imports=imports)
+    src += f"\n\ndef {ENTRY}({', '.join(params)}):\n"
+    admitted = not rates and all(v in py.inputs for v in outputs)
+    src += _python_doc(outputs, step.where, admitted, scalars, sort, allocated,
+                       [a for a in arrays if a in py.array_writes])
+    for v in scalars:
+        s = sort(v)
+        conv = "np.float64" if s == REAL else "operator.index" if s == INT else "bool"
+        src += f"    {v} = {conv}({v})\n"
+    for v in arrays:
+        make = "np.array" if v in py.array_writes else "np.asarray"  # a copy where the step writes
+        src += f"    {v} = {make}({v}, dtype={_dtype(sort(v).range)})\n"
+    for v, shape in allocated.items():
+        src += f"    {v} = np.zeros({shape}, dtype={_dtype(sort(v).range)})\n"
+    body = py.lines or ["        pass"]
+    src += "    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):\n"
+    blocked = ", ".join(["np.nan"] * len(outputs) + ["False"])
+    for line in body:
+        src += line.replace("__BLOCKED__", blocked) + "\n"
+    values, finite = [], []
+    for v in outputs:
+        s = sort(v)
+        if s.is_array:
+            values.append(v)
+            if s.range == REAL:
+                finite.append(f"bool(np.all(np.isfinite({v})))")
+        else:
+            values.append(f"{'float' if s == REAL else 'int' if s == INT else 'bool'}({v})")
+            if s == REAL:
+                finite.append(f"bool(np.isfinite({v}))")
+    if finite:
+        src += "    # floating-point overflow is no run the proof covers\n"
+    src += f"    return {', '.join(values)}, {' and '.join(finite) or 'True'}\n"
+    return src
+
+
+def _python_doc(outputs: list[str], where: str, admitted: bool, scalars: list[str], sort,
+                allocated: dict[str, str], copied: list[str]) -> str:
+    if where == "modes":
+        what = "the rates of the first mode, in the model's order, whose evolution domain holds in this state"
+    elif where == "algorithm":
+        what = "the values the verified algorithm leaves"
+    elif admitted:
+        what = "the command as given, when the verified model admits it"
+    else:
+        what = ("the values the verified model computes for this state (where several alternatives of a "
+                "choice are enabled, the first in the model's order)")
+    paras = [f"Returns ({', '.join(outputs)}, enabled): {what}, and whether the model has a run at all. "
+             "enabled is False when no alternative of a choice (or a test) admits the state"
+             + (", or the arithmetic overflowed" if any(sort(v) == REAL for v in scalars) else "")
+             + "; the other values are then NaN and the caller must fall back."]
+    conversions = []
+    if any(sort(v) == REAL for v in scalars):
+        conversions.append("Real parameters are converted to numpy float64: a division by zero or an "
+                           "overflow gives inf/NaN (reported as enabled = False), never an exception.")
+    if any(sort(v) == INT for v in scalars):
+        conversions.append("Int parameters must be integers.")
+    if conversions:
+        paras.append(" ".join(conversions))
+    arrays = []
+    for v, shape in allocated.items():
+        arrays.append(f"{v} is allocated with zeros of shape {shape}: the algorithm writes all its cells.")
+    for v in copied:
+        arrays.append(f"{v} is copied; cells the algorithm does not write keep the values passed in.")
+    if allocated or copied or any(sort(v).is_array for v in outputs):
+        arrays.append("Arrays are numpy arrays indexed from 0; an index outside an array is the caller's "
+                      "error (IndexError).")
+    if arrays:
+        paras.append(" ".join(arrays))
+    return '    """' + "\n\n".join(_wrap(para, 4) for para in paras).lstrip() + '\n    """\n'
+
+
+def _wrap(text: str, indent: int, width: int = 96) -> str:
+    rows, row = [], ""
+    for word in text.split():
+        if row and indent + len(row) + 1 + len(word) > width:
+            rows.append(row)
+            row = word
+        else:
+            row = f"{row} {word}" if row else word
+    rows.append(row)
+    return "\n".join(" " * indent + r for r in rows)
+
+
+def _dtype(sort) -> str:
+    return "float" if sort == REAL else "int" if sort == INT else "bool"
