@@ -43,6 +43,10 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "rcm.barrier_continuous": rcm.barrier_continuous,
     "rcm.barrier_clearance": rcm.barrier_clearance,
     "rcm.damping_bounds": rcm.damping_bounds,
+    "rcm.axial_euler_4ms": rcm.axial_euler_4ms,
+    "rcm.barrier_off_s": rcm.barrier_off_s,
+    "rcm.axial_guard": rcm.axial_guard,
+    "rcm.axial_guard_half_margin": rcm.axial_guard_half_margin,
 }
 
 
