@@ -22,7 +22,7 @@ from __future__ import annotations
 from fractions import Fraction
 
 from certiloop.models.lang.programs import assign, branch, choice, havoc, loop, ode, seq, test
-from certiloop.models.lang.terms import And, Implies, Or, Reals
+from certiloop.models.lang.terms import TRUE, And, Implies, Or, Reals
 from certiloop.models.lang.theorem import Theorem
 
 # --------------------------------------------------------------------------- Table 1
@@ -299,7 +299,7 @@ def barrier_clearance() -> Theorem:
     return Theorem(
         name="rcm.barrier_clearance",
         assumptions=And(0 < Yb, Yb <= 1, s_ * (2 * D0 - s_) >= D0**2 * Yb),
-        program=test(s_ <= 2 * D0),
+        program=test(TRUE),
         guarantee=And(s_ > 0, (D0 - s_) ** 2 <= D0**2 * (1 - Yb)),
         expected="proved",
         description="(33) → claim 4: 1 − ψ >= Y > 0 gives the gap s >= d0(1 − √(1 − Y)) > 0",
