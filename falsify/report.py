@@ -5,26 +5,30 @@ from __future__ import annotations
 from typing import Any
 
 from rich.console import Console
+from rich.markup import escape
 
 from certiloop.falsify.search import Falsification
+from certiloop.proofs.cli import ui
 
 
-def show_falsification(console: Console, result: Falsification) -> None:
-    head = f"{result.model}: "
+def show_falsification(console: Console, result: Falsification, level: int = ui.NORMAL) -> None:
+    """One model's search: a line when no run violates the guarantee (none with --quiet), else
+    the violating run step by step (--verbose: every margin at the end, not the 3 smallest)."""
+    name = escape(result.model)
     if not result.found and result.note:
-        console.print(f"[bold]{result.model}[/]: [yellow]no run[/]: {result.note} ({result.seconds:.2f} s)",
+        console.print(f"[bold]{name}[/]: [yellow]no run[/]: {escape(result.note)} ({result.seconds:.2f} s)",
                       highlight=False)
         return
     if not result.found:
-        console.print(f"[bold]{result.model}[/]: [green]no counterexample[/] in {result.examples} examples "
-                      f"({result.seconds:.2f} s)")
+        if level > ui.QUIET:
+            console.print(f"[bold]{name}[/]: [green]no counterexample[/] in {result.examples} examples "
+                          f"({result.seconds:.2f} s)", highlight=False)
         return
     run = result.run
     last = run.checkpoints[-1]
-    console.print(f"[bold]{head}[/][red]counterexample[/] after {result.examples} examples "
-                  f"({result.seconds:.2f} s); re-checked: {result.check}", highlight=False)
-    console.print(f"  violated after control step {last.step} (t = {last.time:.6g}): {run.violated}",
-                  highlight=False, markup=False)
+    console.print(f"[bold]{name}[/]: [red]counterexample[/] after {result.examples} examples "
+                  f"({result.seconds:.2f} s); re-checked: {escape(result.check)}", highlight=False)
+    ui.say(console, f"  violated after control step {last.step} (t = {last.time:.6g}): {run.violated}")
     previous: dict[str, Any] = {}
     for c in run.checkpoints:
         changed = {k: v for k, v in c.state.items() if previous.get(k) != v}
@@ -32,10 +36,11 @@ def show_falsification(console: Console, result: Falsification) -> None:
         where = f"step {c.step}, t = {c.time:.6g}"
         choices = f" [{' / '.join(c.choices)}]" if c.choices else ""
         values = ", ".join(f"{k} = {_show(v)}" for k, v in changed.items()) or "no change"
-        console.print(f"  {where}{choices}: {values}", highlight=False, markup=False, soft_wrap=False)
-    worst = sorted(last.margins.items(), key=lambda kv: kv[1])[:3]
-    console.print("  smallest margins at the end: " + ", ".join(f"{k}: {v:.6g}" for k, v in worst),
-                  highlight=False, markup=False)
+        ui.say(console, f"  {where}{choices}: {values}")
+    margins = sorted(last.margins.items(), key=lambda kv: kv[1])
+    shown = margins if level == ui.VERBOSE else margins[:3]
+    what = "margins" if level == ui.VERBOSE else "smallest margins"
+    ui.say(console, f"  {what} at the end: " + ", ".join(f"{k}: {v:.6g}" for k, v in shown))
 
 
 def _show(v: Any) -> str:

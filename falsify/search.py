@@ -111,15 +111,17 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
 
     db = DirectoryBasedExampleDatabase(str(opts.database)) if opts.database else None
     phases = list(Phase) if opts.shrink else [p for p in Phase if p != Phase.shrink]
+    # settings after seed: `@seed` switches the example database off, and so it was never
+    # written (nor a failure found once tried first the next time)
+    test = fixed_seed(opts.seed)(given(st.data())(one_run))
     test = settings(max_examples=opts.max_examples, database=db, deadline=None, phases=phases,
                     derandomize=False,
                     verbosity=Verbosity.quiet, report_multiple_bugs=False, print_blob=False,
-                    suppress_health_check=list(HealthCheck))(given(st.data())(one_run))
-    test = fixed_seed(opts.seed)(test)
+                    suppress_health_check=list(HealthCheck))(test)
     test._hypothesis_internal_database_key = hashlib.sha256(  # one database entry per model
         f"{theorem.content_hash}/{opts.digest()}".encode()).digest()
     try:
-        with _shrink_budget(SHRINK_SECONDS):
+        with _shrink_budget(SHRINK_SECONDS), _model_constants(theorem):
             test()
     except _Found as found:
         check = found.check if found.check != "deep" else confirm(theorem, found.script, found.run, opts)
@@ -148,6 +150,51 @@ def _shrink_budget(seconds: float):
     finally:
         if old is not None:
             engine.MAX_SHRINKING_SECONDS = old
+
+
+@contextmanager
+def _model_constants(theorem: Theorem):
+    """Hypothesis now and then draws a "local constant" it harvested from the source of every
+    non-installed module imported so far (certiloop's own, in a development checkout; the
+    user's), so a search found different runs depending on what the process had imported
+    before: `gate m` could fail where `gate` passed. Pin that pool to the model's own
+    numbers instead: the same search in any process, aimed at the model's thresholds.
+    Without these internals (another hypothesis version) this does nothing."""
+    try:
+        from hypothesis.internal.conjecture import providers
+        from hypothesis.internal.constants_ast import Constants
+    except ImportError:  # pragma: no cover - hypothesis internals moved
+        yield
+        return
+    old = getattr(providers, "_get_local_constants", None)
+    cache = getattr(providers, "CONSTANTS_CACHE", None)
+    if old is None or cache is None:  # pragma: no cover
+        yield
+        return
+    numbers = _literals(theorem)
+    pinned = Constants(integers=sorted({int(v) for v in numbers if v.denominator == 1}),
+                       floats=sorted({float(v) for v in numbers}), bytes=[], strings=[])
+    providers._get_local_constants = lambda: pinned
+    cache.cache.clear()
+    try:
+        yield
+    finally:
+        providers._get_local_constants = old
+        cache.cache.clear()
+
+
+def _literals(theorem: Theorem) -> set:
+    """Every numeric literal of the theorem, and its negation."""
+    from certiloop.models.lang.theorem import _visit
+
+    found: set = set()
+
+    def on_node(n, _where) -> None:
+        if n.op == "const" and n.sort.is_numeric:
+            found.update((n.payload, -n.payload))
+
+    _visit(theorem, on_node)
+    return found
 
 
 def confirm(theorem: Theorem, script, run: Run, opts: Options) -> str:

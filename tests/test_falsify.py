@@ -179,3 +179,21 @@ def test_cli_falsify_bad_input_exits_2(argv, capsys):
 
     assert main(argv) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+def test_the_search_does_not_depend_on_what_the_process_imported(tmp_path, monkeypatch):
+    """Hypothesis draws now and then a constant harvested from every local module imported
+    so far; the falsifier pins that pool to the model's own numbers, so importing a module
+    full of numbers between two searches changes nothing (it once made `gate m` fail where
+    the whole gate passed)."""
+    theorem = library.get("textbook.bouncing_ball_superelastic")
+    opts = Options(max_examples=300, seed=3, database=None, shrink=False)
+    before = falsify(theorem, opts)
+    numbers = ", ".join(f"{k}.{k % 7}5" for k in range(400))
+    (tmp_path / "numbers_galore.py").write_text(f"VALUES = [{numbers}, -3, 7, 1e9, 0.5]\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import numbers_galore  # noqa: F401  (imported for its constants)
+
+    after = falsify(theorem, opts)
+    assert (after.found, after.examples) == (before.found, before.examples)
+    assert after.script == before.script

@@ -4,7 +4,7 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("models", "proofs", "falsify", "kernel")
+PACKAGES = ("models", "proofs", "falsify", "kernel", "testing")
 
 
 def _modules() -> dict[str, Path]:

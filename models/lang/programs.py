@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
+from certiloop.models.lang import notation
 from certiloop.models.lang.printing import show_program
 from certiloop.models.lang.terms import (
     BOOL,
@@ -50,6 +51,10 @@ class Program:
 
     __repr__ = __str__
 
+    def _repr_latex_(self) -> str:
+        """Notebook display: the program in dL notation (annotations left out)."""
+        return f"${notation.program(self)}$"
+
 
 def _target_root(target: Node) -> Node:
     while target.op == "select":
@@ -69,6 +74,8 @@ def _check_target(target: Node) -> Node:
 
 @dataclass(frozen=True, eq=False)
 class Assign(Program):
+    """x := e (or a[i] := e): build it with `assign`."""
+
     target: Node
     value: Node
 
@@ -90,6 +97,8 @@ class Havoc(Program):
 
 @dataclass(frozen=True, eq=False)
 class Test(Program):
+    """?Q: continue only if Q holds (runs where it fails are discarded): build it with `test`."""
+
     cond: Node
     __test__ = False  # not a pytest test class
 
@@ -100,6 +109,8 @@ class Test(Program):
 
 @dataclass(frozen=True, eq=False)
 class Seq(Program):
+    """a; b; ...: run the parts one after another: build it with `seq` (or `a >> b`)."""
+
     parts: tuple[Program, ...]
 
     @property
@@ -187,6 +198,8 @@ class ODE(Program):
 
 
 def assign(target: Node, value: Any) -> Assign:
+    """x := e, for a symbol or an array/family cell: `assign(a, -b)`, `assign(u(i), 1)`.
+    An Int target needs an Int value; a Bool target takes a formula."""
     target = _check_target(target)
     value = term(value) if target.sort != BOOL else formula(value)
     if target.sort != value.sort and not (target.sort.is_numeric and value.sort.is_numeric):
@@ -204,10 +217,16 @@ def havoc(target: Node) -> Havoc:
 
 
 def test(cond: Any) -> Test:
+    """?Q, a guard: runs where Q is false are discarded: `test(v >= 0)`."""
     return Test(formula(cond))
 
 
+test.__test__ = False  # imported into a user's test module, it is not a pytest test
+
+
 def seq(*parts: Program) -> Program:
+    """a; b; c: the programs one after another (nested sequences flatten):
+    `seq(ctrl, assign(t, 0), plant)`; `a >> b` is the same."""
     flat: list[Program] = []
     for p in parts:
         if not isinstance(p, Program):
@@ -222,6 +241,9 @@ def branch(label: str, *parts: Program) -> tuple[str, Program]:
 
 
 def choice(*alternatives: Program | tuple[str, Program]) -> Choice:
+    """a ∪ b ∪ ...: nondeterministically run one alternative. Label alternatives with
+    `branch` so proof paths name them: `choice(branch("brake", ...), branch("coast", ...))`;
+    unlabelled ones are called "branch 1", "branch 2"; `a | b` is the same."""
     progs: list[Program] = []
     labels: list[str] = []
     for alt in alternatives:
@@ -240,12 +262,20 @@ def choice(*alternatives: Program | tuple[str, Program]) -> Choice:
 
 
 def loop(body: Program, invariant: Any = None, label: str = "loop") -> Loop:
+    """body*: repeat body any number of times (zero included). The proof needs an
+    `invariant` that holds initially, is kept by body and implies the guarantee; without
+    one it uses the guarantee. `label` names the loop in proof paths:
+    `loop(seq(ctrl, plant), invariant=v**2 <= 2*b*(m - p), label="control loop")`."""
     inv = formula(invariant) if invariant is not None else None
     return Loop(body, inv, label)
 
 
 def ode(eqs: dict[Node, Any] | list[tuple[Node, Any]], domain: Any = TRUE,
         invariants: tuple[Any, ...] | list[Any] = ()) -> ODE:
+    """{x' = f, ... & domain}: follow the ODE for any duration while the domain holds
+    throughout: `ode({p: v, v: a, t: 1}, And(v >= 0, t <= eps))`. `invariants`: a chain of
+    differential invariants, each proved with the earlier ones (a differential cut), for
+    flows without a polynomial solution: `invariants=[v >= 0, x >= x0]`."""
     pairs = list(eqs.items()) if isinstance(eqs, dict) else list(eqs)
     seen: set[str] = set()
     out = []
@@ -264,11 +294,15 @@ def ode(eqs: dict[Node, Any] | list[tuple[Node, Any]], domain: Any = TRUE,
 
 
 def skip() -> Test:
+    """The program that does nothing (?true): `if_(c, assign(x, 0), skip())`."""
     return Test(TRUE)
 
 
 def if_(cond: Any, then: Program, otherwise: Program | None = None,
         labels: tuple[str, str] = ("then", "else")) -> Choice:
+    """if cond then `then` else `otherwise` (default: skip), as the choice
+    `?cond; then ∪ ?!cond; otherwise` with the two branches labelled `labels`:
+    `if_(h == 0, assign(v, -c * v), labels=("bounce", "in the air"))`."""
     c = formula(cond)
     return choice(branch(labels[0], test(c), then), branch(labels[1], test(Not(c)), otherwise or skip()))
 

@@ -11,11 +11,13 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any, Iterable
 
+from certiloop.models.lang import notation
 from certiloop.models.lang.printing import show
 
 
 class ModelError(ValueError):
-    """A model is ill-formed; the message names the place and the fix."""
+    """A model is ill-formed; the message names the place and the fix. Raised when a term,
+    program or `Theorem` is built, so a bad model fails where it is written."""
 
 
 # --------------------------------------------------------------------------- sorts
@@ -41,13 +43,14 @@ class Sort:
         return self.name
 
 
-REAL = Sort("Real")
-INT = Sort("Int")
-BOOL = Sort("Bool")
+REAL = Sort("Real")  # real numbers: the default sort of a symbol
+INT = Sort("Int")  # integers: loop counters, array indices
+BOOL = Sort("Bool")  # truth values: formulas, and Bool symbols and families such as done(i)
 
 
 def IndexSort(name: str) -> Sort:
-    """An uninterpreted finite sort whose elements index a family (e.g. boundaries)."""
+    """An uninterpreted finite sort whose elements index a family (e.g. boundaries): the
+    proof holds for every finite size. `B = IndexSort("B")`, then `Family("nx", B)`."""
     if name in ("Real", "Int", "Bool"):
         raise ModelError(f"index sort name {name!r} clashes with a built-in sort")
     return Sort(name)
@@ -81,8 +84,16 @@ def _as_fraction(value: Any) -> Fraction:
 
 @dataclass(frozen=True, eq=False)
 class Node:
-    """op: 'const' | 'var' | 'select' | 'store' | arithmetic | 'cmp' | connective | ...
+    """A term or formula. Build them with Python operators, never by hand:
 
+    `x + y`, `x - y`, `2 * x`, `x / y` (real division), `-x`, `x**2` (natural exponents)
+    give terms; `x <= y`, `x < y`, `x == y`, `x != y` give formulas (so `==` never tests
+    Python equality: compare with `.same()` or `.key`); on formulas `p & q`, `p | q`, `~p`
+    and `p >> q` (implication) are `And`, `Or`, `Not` and `Implies`; `a[i]`, `a[i][j]` and
+    `nx(i)` read arrays and families. Formulas have no Python truth value, so a chained
+    `0 <= x <= D` is an error: write `And(0 <= x, x <= D)`.
+
+    op: 'const' | 'var' | 'select' | 'store' | arithmetic | 'cmp' | connective | ...
     payload: the value (const), name (var), comparison operator (cmp), exponent (^),
     bound variables (quantifiers) or the program (modalities).
     """
@@ -124,6 +135,10 @@ class Node:
         return show(self)
 
     __repr__ = __str__
+
+    def _repr_latex_(self) -> str:
+        """Notebook display: the term or formula as LaTeX math."""
+        return f"${notation.term(self)}$"
 
     @property
     def name(self) -> str:
@@ -237,38 +252,46 @@ def term(x: Any) -> Node:
 
 
 def Var(name: str, sort: Sort = REAL) -> Node:
+    """A symbol of any sort: `Var("i", B)` for an element of the index sort `B`."""
     if not isinstance(name, str) or not name:
         raise ModelError(f"a symbol needs a non-empty name, got {name!r}")
     return Node("var", (), sort, name)
 
 
 def Real(name: str) -> Node:
+    """A real symbol: `v = Real("v")`."""
     return Var(name, REAL)
 
 
 def Int(name: str) -> Node:
+    """An integer symbol (loop counters, array indices): `k = Int("k")`."""
     return Var(name, INT)
 
 
 def Bool(name: str) -> Node:
+    """A Boolean symbol, usable as a formula: `braking = Bool("braking")`."""
     return Var(name, BOOL)
 
 
 def Reals(names: str) -> list[Node]:
+    """Several real symbols from space-separated names: `p, v, a = Reals("p v a")`."""
     return [Real(n) for n in names.split()]
 
 
 def Ints(names: str) -> list[Node]:
+    """Several integer symbols from space-separated names: `i, j = Ints("i j")`."""
     return [Int(n) for n in names.split()]
 
 
 def Array(name: str, domain: Sort | tuple[Sort, ...], range: Sort = REAL) -> Node:
-    """An array symbol; `a[i][j]` reads it, `assign(a[i][j], e)` writes it."""
+    """An array symbol over integer (or index-sort) indices; `a[i][j]` reads it,
+    `assign(a[i][j], e)` writes it: `P = Array("P", (INT, INT, INT))`."""
     return Var(name, ArraySort(domain, range))
 
 
 def Family(name: str, index: Sort, range: Sort = REAL) -> Node:
-    """A function over an index sort, e.g. a boundary normal component `nx(i)`."""
+    """A function over an index sort, e.g. a boundary normal component `nx(i)`:
+    `nx = Family("nx", B)`; `Family("done", B, BOOL)` marks elements."""
     return Var(name, ArraySort(index, range))
 
 
@@ -346,8 +369,8 @@ def cmp(op: str, a: Any, b: Any) -> Node:
     return Node("cmp", (a, b), BOOL, op)
 
 
-TRUE = Node("true", (), BOOL)
-FALSE = Node("false", (), BOOL)
+TRUE = Node("true", (), BOOL)  # the formula true (also: an ODE's default domain)
+FALSE = Node("false", (), BOOL)  # the formula false
 
 
 def formula(x: Any) -> Node:
@@ -359,6 +382,7 @@ def formula(x: Any) -> Node:
 
 
 def And(*xs: Any) -> Node:
+    """Conjunction of any number of formulas (`And()` is true): `And(x >= 0, x <= D)`."""
     args: list[Node] = []
     for x in map(formula, xs):
         if x.op == "false":
@@ -371,6 +395,7 @@ def And(*xs: Any) -> Node:
 
 
 def Or(*xs: Any) -> Node:
+    """Disjunction of any number of formulas (`Or()` is false): `Or(v == 0, a < 0)`."""
     args: list[Node] = []
     for x in map(formula, xs):
         if x.op == "true":
@@ -383,6 +408,7 @@ def Or(*xs: Any) -> Node:
 
 
 def Not(x: Any) -> Node:
+    """Negation of a formula; `~f` is the same: `Not(x > D)`."""
     x = formula(x)
     if x.op == "true":
         return FALSE
@@ -392,6 +418,7 @@ def Not(x: Any) -> Node:
 
 
 def Implies(a: Any, b: Any) -> Node:
+    """Implication `a -> b`; `a >> b` is the same: `Implies(done(j), safe(j))`."""
     a, b = formula(a), formula(b)
     if a.op == "true" or b.op == "true":
         return b
@@ -401,6 +428,7 @@ def Implies(a: Any, b: Any) -> Node:
 
 
 def Iff(a: Any, b: Any) -> Node:
+    """Equivalence `a <-> b`: `Iff(braking, v > vmax)`."""
     return Node("iff", (formula(a), formula(b)), BOOL)
 
 
@@ -413,29 +441,37 @@ def _binder(op: str, variables: Node | Iterable[Node], body: Any) -> Node:
 
 
 def ForAll(variables: Node | Iterable[Node], body: Any) -> Node:
+    """Universal quantifier over one symbol or a list of them (reals, integers or an index
+    sort): `ForAll(j, d0(j) >= 0)` for every boundary j."""
     return _binder("forall", variables, body)
 
 
 def Exists(variables: Node | Iterable[Node], body: Any) -> Node:
+    """Existential quantifier, as `ForAll`: `Exists(t, And(t >= 0, p + v * t == m))`."""
     return _binder("exists", variables, body)
 
 
 def Box(program: Any, post: Any) -> Node:
+    """`[program] post`: post holds after every run of program (a formula, so it can sit in
+    assumptions or guarantees): `Box(ode({x: v}), x >= x0)`."""
     return Node("box", (formula(post),), BOOL, program)
 
 
 def Diamond(program: Any, post: Any) -> Node:
+    """`<program> post`: some run of program ends where post holds:
+    `Diamond(ode({x: 1}), x >= 10)`."""
     return Node("diamond", (formula(post),), BOOL, program)
 
 
 def Ite(cond: Any, then: Any, other: Any) -> Node:
-    """Formula-level if-then-else (for postconditions such as P = (collide ? 1 : 0))."""
+    """Formula-level if-then-else (for postconditions such as P = (collide ? 1 : 0)):
+    `Ite(collide, P == 1, P == 0)` is `(collide -> P = 1) & (!collide -> P = 0)`."""
     c = formula(cond)
     return And(Implies(c, then), Implies(Not(c), other))
 
 
 def dot(u: Iterable[Any], v: Iterable[Any]) -> Node:
-    """Dot product of two equal-length vectors of terms."""
+    """Dot product of two equal-length vectors of terms: `dot((px, py), (nx(i), ny(i)))`."""
     u, v = list(u), list(v)
     if len(u) != len(v):
         raise ModelError(f"dot product of vectors of length {len(u)} and {len(v)}")

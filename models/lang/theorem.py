@@ -5,8 +5,10 @@ from __future__ import annotations
 import hashlib
 import re
 from dataclasses import dataclass, field
+from html import escape
 from typing import Callable
 
+from certiloop.models.lang import notation
 from certiloop.models.lang.printing import show, show_program
 from certiloop.models.lang.programs import (
     ODE,
@@ -36,11 +38,25 @@ VERDICTS = ("proved", "refuted")
 
 @dataclass(frozen=True, eq=False)
 class Theorem:
-    """`assumptions -> [program] guarantee`, the claim a model makes.
+    """`assumptions -> [program] guarantee`, the claim a model makes. Checked when built
+    (sorts, names, constants, ODEs): an ill-formed model raises `ModelError`.
 
+    name: the model's name in reports and `certiloop` commands, e.g. "my.train".
+    assumptions: formula on the initial state (parameters' ranges, the start inside the
+        invariant), e.g. `And(v >= 0, b > 0)`.
+    program: the hybrid program, usually `loop(seq(ctrl, plant), invariant=...)`.
+    guarantee: formula that must hold after every run, e.g. `p <= m`.
+    expected: "proved" (default) or "refuted", the verdict the author expects; unsafe
+        designs are kept as "refuted", and `certiloop gate` compares with it.
     abbreviations: name -> term, e.g. {"d0": dot(p - r, n)}. The prover may replace these
-    subterms by fresh variables (a sound generalisation) to keep arithmetic small.
-    expected: the verdict the author expects; unsafe designs are kept as `refuted`.
+        subterms by fresh variables (a sound generalisation) to keep arithmetic small.
+    description: one line for `certiloop list`.
+    unroll: loop iterations the refuter explores when a proof fails (default 3).
+    constants: symbols the program must never write, e.g. `(A, b)`; checked.
+    check_nonblocking: also prove that the loop body has a run from every state it can start
+        in (the safety proof is not vacuous), and find one.
+    scenarios: extra assumptions the refuter tries first, e.g. `(G == 1,)`; they only
+        restrict the initial states searched, so a run found under one is a real run.
     """
 
     name: str
@@ -93,6 +109,23 @@ class Theorem:
         """A hash of `canonical`: changes whenever the claim does (a sort, an invariant, ...)."""
         return hashlib.sha256(self.canonical.encode()).hexdigest()[:16]
 
+    @property
+    def latex(self) -> str:
+        """The claim `assumptions → [program] guarantee` as LaTeX math (no `$`)."""
+        return notation.claim(self.assumptions, self.program, self.guarantee)
+
+    def _repr_latex_(self) -> str:
+        """Notebook display: the claim in dL notation."""
+        return f"$${self.latex}$$"
+
+    def _repr_html_(self) -> str:
+        """Notebook display: name, expected verdict, description, the claim in dL notation
+        and, folded, as `text` (with the invariants and branch labels)."""
+        about = f" — {escape(self.description)}" if self.description else ""
+        formula = notation.claim(self.assumptions, self.program, self.guarantee, notation.HTML)
+        return (f'<div class="certiloop-theorem"><p><b>{escape(self.name)}</b> (expected '
+                f"{escape(self.expected)}){about}</p><p>{formula}</p><details><summary>as text, with "
+                f"annotations</summary><pre>{escape(self.text)}</pre></details></div>")
 
 
 # --------------------------------------------------------------------------- well-formedness

@@ -12,6 +12,7 @@ timeout, a solver give-up) never passes.
 from __future__ import annotations
 
 import time
+from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -96,6 +97,10 @@ class GateEntry:
         return cls(**keep, cached=True)
 
 
+REFUTED_FACTOR = 10  # a model expected refuted may take 10x the examples: the search stops at
+# its first violating run, so this costs only when there is none (some seeds need 500+)
+
+
 @dataclass
 class GateOptions:
     falsify_examples: int = 300
@@ -106,17 +111,27 @@ class GateOptions:
         return f"falsify={self.falsify_examples}/seed={self.seed}" + ("/cvc5" if self.cross_check else "")
 
 
-def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntry:
+def falsify_task(theorem: Theorem, opts: GateOptions):
+    """The gate's falsifier run, on a prover worker: it needs nothing from the proof, so it
+    runs beside it (a seeded search: the same answer in any process)."""
     from certiloop.falsify.search import Options, falsify
 
+    examples = opts.falsify_examples * (REFUTED_FACTOR if theorem.expected == "refuted" else 1)
+    return falsify(theorem, Options(max_examples=examples, seed=opts.seed, database=None, shrink=False))
+
+
+def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
+                falsifier: Future | None = None) -> GateEntry:
+    """falsifier: this model's falsify_task, if already submitted."""
     start = time.perf_counter()
+    if falsifier is None:
+        falsifier = prover.submit(falsify_task, theorem, opts)
     result = prover.prove(theorem)
     replay = None
     if result.run is not None:  # the engine's independent checks of its run
         replay = {"violated": result.run.replayed and result.run.flows_confirmed,
                   "message": result.run.detail}
-    found = falsify(theorem, Options(max_examples=opts.falsify_examples, seed=opts.seed, database=None,
-                                     shrink=False))
+    found = falsifier.result()
     summary = {"verdict": found.verdict, "examples": found.examples, "seconds": round(found.seconds, 3),
                "violated": found.run.violated if found.run else None, "check": found.check,
                "note": found.note}
@@ -134,17 +149,28 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions) -> GateEntr
 
 
 def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=None,
-             on_model=None) -> list[GateEntry]:
-    entries = []
-    for theorem in theorems:
-        key = (cache.key("gate", f"{theorem.canonical}\n{opts.text()}/rlimit={prover.budget.rlimit}")
-               if cache else None)
-        hit = cache.get(key) if cache else None
+             on_model=None, on_start=None, into: list[GateEntry] | None = None) -> list[GateEntry]:
+    """Gate each theorem in order; each entry is appended to `into` as soon as it is done
+    (so an interrupted gate still has the finished ones to report)."""
+    entries = [] if into is None else into
+    setting = f"{opts.text()}/rlimit={prover.budget.rlimit}"
+    keys = [cache.key("gate", f"{t.canonical}\n{setting}") if cache else None for t in theorems]
+    hits = [cache.get(key) if cache else None for key in keys]
+    todo = [i for i, hit in enumerate(hits) if hit is None]
+    # the next model's falsifier is queued before this model's obligations, so the workers
+    # always have it to run while the proof waits on its last obligations
+    falsifiers = dict.fromkeys(todo[:1], prover.submit(falsify_task, theorems[todo[0]], opts)) if todo else {}
+    for i, (theorem, key, hit) in enumerate(zip(theorems, keys, hits)):
+        if on_start:
+            on_start(theorem.name)
         if hit is not None:
             entry = GateEntry.from_json(hit)
             entry.kernel = _kernel_check(theorem)  # the shipped file may have changed: never cached
         else:
-            entry = check_model(theorem, prover, opts)
+            after = todo[todo.index(i) + 1:]
+            if after:
+                falsifiers[after[0]] = prover.submit(falsify_task, theorems[after[0]], opts)
+            entry = check_model(theorem, prover, opts, falsifiers.pop(i))
             if cache and entry.verdict != "unknown":  # a budget may be raised: never cached
                 cache.put(key, entry.to_json())
         if cache and entry.verdict == "proved":  # lets `certiloop extract` skip the proof

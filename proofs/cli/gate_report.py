@@ -6,9 +6,12 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 
 from certiloop.proofs.cli.gate import GateEntry
+from certiloop.proofs.cli.report import hint, label
 
 
-def junit(entries: list[GateEntry]) -> str:
+def junit(entries: list[GateEntry], selected: int | None = None) -> str:
+    """selected: how many models the gate was to check; fewer entries mean it was interrupted,
+    which shows as a failing test case so CI cannot mistake the report for a whole one."""
     suites = ET.Element("testsuites", name="certiloop gate")
     for e in entries:
         cases = [_model_case(e)] + [_obligation_case(e, o) for o in e.obligations]
@@ -16,6 +19,12 @@ def junit(entries: list[GateEntry]) -> str:
                               failures=str(sum(c.find("failure") is not None for c in cases)),
                               time=f"{e.seconds:.3f}")
         suite.extend(cases)
+    if selected is not None and len(entries) < selected:
+        suites.set("partial", "true")
+        suite = ET.SubElement(suites, "testsuite", name="certiloop gate (interrupted)", tests="1",
+                              failures="1")
+        case = ET.SubElement(suite, "testcase", classname="certiloop", name="gate finished")
+        ET.SubElement(case, "failure", message=_interrupted(entries, selected))
     ET.indent(suites)
     return '<?xml version="1.0" encoding="utf-8"?>\n' + ET.tostring(suites, encoding="unicode") + "\n"
 
@@ -36,7 +45,9 @@ def _obligation_case(e: GateEntry, o: dict) -> ET.Element:
                       time=f"{o['seconds']:.3f}")
     if o["verdict"] != "proved":
         if e.expected == "proved":
-            failure = ET.SubElement(case, "failure", message=f"{o['verdict']}: {o.get('reason', '')}")
+            rule = o.get("rule", "")
+            why = "; ".join(x for x in (o.get("reason", ""), hint(o["verdict"], rule)) if x)
+            failure = ET.SubElement(case, "failure", message=f"{label(o['verdict'], rule)}: {why}")
             if o.get("counterexample"):
                 failure.text = ", ".join(f"{k} = {v}" for k, v in o["counterexample"].items())
         else:  # the design is expected to be unsafe: a failed branch is the point
@@ -53,10 +64,16 @@ def _counterexample_text(e: GateEntry) -> str:
     return "\n".join(lines)
 
 
-def markdown(entries: list[GateEntry]) -> str:
+def _interrupted(entries: list[GateEntry], selected: int) -> str:
+    return f"interrupted: a partial report of the {len(entries)} of {selected} models finished"
+
+
+def markdown(entries: list[GateEntry], selected: int | None = None) -> str:
     passed = sum(e.passed for e in entries)
-    mark = "✅" if passed == len(entries) else "❌"
+    partial = selected is not None and len(entries) < selected
+    mark = "✅" if passed == len(entries) and not partial else "❌"
     out = [f"## certiloop gate: {mark} {passed}/{len(entries)} models met their expected verdict", "",
+           *([f"**{_interrupted(entries, selected)}**", ""] if partial else []),
            "| model | expected | verdict | obligations proved | falsifier | replay | kernel | s | gate |",
            "|---|---|---|---|---|---|---|---|---|"]
     for e in entries:

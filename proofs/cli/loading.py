@@ -28,7 +28,8 @@ def load_all(specs: list[str]) -> list[Theorem]:
 
 
 def load(spec: str) -> Theorem:
-    if ":" in spec and (spec.split(":", 1)[0].endswith(".py") or "/" in spec):
+    before = spec.rsplit(":", 1)[0]
+    if ":" in spec and (before.endswith(".py") or "/" in spec or Path(before).exists()):
         return _from_file(*spec.rsplit(":", 1))
     if spec.endswith(".py"):
         raise ModelError(f"{spec}: name the theorem too, as {spec}:THEOREM")
@@ -37,8 +38,12 @@ def load(spec: str) -> Theorem:
 
 def _from_file(path_text: str, attr: str) -> Theorem:
     path = Path(path_text)
+    if path.is_dir():
+        raise ModelError(f"{path_text} is a folder: name a Python file in it, as {path_text}/FILE.py:THEOREM")
     if not path.is_file():
-        raise ModelError(f"{path_text}: no such file")
+        raise ModelError(f"{path_text}: no such file (paths are relative to the current folder)")
+    if path.suffix != ".py":
+        raise ModelError(f"{path_text}: not a Python file: models are written in .py files")
     if not attr.isidentifier():
         raise ModelError(f"{path_text}: {attr!r} is not a Python name")
     module_name = f"certiloop_user_{abs(hash(path.resolve()))}"
@@ -66,6 +71,7 @@ def _from_file(path_text: str, attr: str) -> Theorem:
         raise ModelError(f"{path_text}: defines no theorem named {attr!r}{hint}")
     obj = getattr(module, attr)
     if callable(obj) and not isinstance(obj, Theorem):
+        _no_arguments_needed(obj, f"{path_text}:{attr}")
         try:
             obj = obj()
         except ModelError as exc:
@@ -76,6 +82,20 @@ def _from_file(path_text: str, attr: str) -> Theorem:
     if not isinstance(obj, Theorem):
         raise ModelError(f"{path_text}:{attr} is a {type(obj).__name__}, not a certiloop Theorem")
     return obj
+
+
+def _no_arguments_needed(builder, where: str) -> None:
+    import inspect
+
+    try:
+        params = inspect.signature(builder).parameters.values()
+    except (TypeError, ValueError):  # a builtin or a class without a signature: just call it
+        return
+    needed = [p.name for p in params if p.default is p.empty
+              and p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
+    if needed:
+        raise ModelError(f"{where} needs arguments ({', '.join(needed)}): name a Theorem, or a function "
+                         "of no arguments that returns one")
 
 
 def project_models(folder: Path | None = None) -> list[str]:

@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INCONSISTENT = 0, 1, 2, 3
+EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT, EXIT_INCONSISTENT, EXIT_INTERRUPTED = 0, 1, 2, 3, 130
 
 
 class BadInput(Exception):
@@ -18,7 +18,7 @@ class BadInput(Exception):
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # argparse prints usage + exits 2; keep it one line
-        raise BadInput(message)
+        raise BadInput(f"{message} (see `{self.prog} --help`)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -48,7 +48,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="worker processes (default: number of cores)")
     prove.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
                        "(tcp://host:8786; needs certiloop[distributed])")
-    prove.add_argument("-v", "--verbose", action="store_true", help="list every obligation")
+    _verbosity_flags(prove, "every obligation with its backend or reason")
 
     falsify = sub.add_parser(
         "falsify", help="search for a run that violates the guarantee (hypothesis)",
@@ -71,6 +71,7 @@ def build_parser() -> argparse.ArgumentParser:
     falsify.add_argument("--database", metavar="DIR", default=".certiloop/hypothesis",
                          help="hypothesis example database, so failures are found again first "
                          "(default .certiloop/hypothesis; 'none' to disable)")
+    _verbosity_flags(falsify, "every safety margin at the end of a violating run")
 
     extract = sub.add_parser(
         "extract", help="generate runtime code from a verified model's controller",
@@ -85,6 +86,7 @@ def build_parser() -> argparse.ArgumentParser:
     _budget_flags(extract)
     extract.add_argument("--jobs", metavar="N", type=int, default=None,
                          help="worker processes for the proof (default: number of cores)")
+    _verbosity_flags(extract, "the proof's obligations (on stderr)")
 
     gate = sub.add_parser(
         "gate", help="check every model against its expected verdict (for CI)",
@@ -105,11 +107,20 @@ def build_parser() -> argparse.ArgumentParser:
     gate.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
                       "(tcp://host:8786; needs certiloop[distributed])")
     gate.add_argument("--falsify-examples", metavar="N", type=int, default=300,
-                      help="falsifier runs per model (default 300)")
+                      help="falsifier runs per model (default 300; a model expected "
+                      "refuted may take 10x as many: the search stops at its first violating run)")
     gate.add_argument("--cache", metavar="DIR", help="proof cache folder (default .certiloop/cache, "
                       "or $CERTILOOP_CACHE)")
     gate.add_argument("--no-cache", action="store_true", help="prove everything afresh")
+    _verbosity_flags(gate, "every model's checks and its obligations not proved")
     return parser
+
+
+def _verbosity_flags(parser: argparse.ArgumentParser, verbose_shows: str) -> None:
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("-q", "--quiet", action="store_true",
+                       help="print only what failed and the final summary line")
+    group.add_argument("-v", "--verbose", action="store_true", help=f"also print {verbose_shows}")
 
 
 def _budget_flags(parser: argparse.ArgumentParser) -> None:
@@ -141,14 +152,17 @@ def _need_cvc5(args: argparse.Namespace) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
+    from certiloop.proofs.cli import guards
+
+    restore = guards.on_interrupt_exit_quietly()
     try:
         return _main(argv)
-    except BadInput as exc:
+    except (BadInput, guards.OutputPathError) as exc:
         print(f"certiloop: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
     except KeyboardInterrupt:
         print("certiloop: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         return EXIT_FAILED
     except ImportError as exc:
@@ -165,6 +179,8 @@ def main(argv: list[str] | None = None) -> int:
         print(f"certiloop: internal error: {type(exc).__name__}: {exc} "
               "(set CERTILOOP_DEBUG=1 for the traceback)", file=sys.stderr)
         return EXIT_BAD_INPUT
+    finally:
+        restore()
 
 
 def _main(argv: list[str] | None) -> int:
@@ -186,31 +202,43 @@ def _main(argv: list[str] | None) -> int:
 
 
 def console(stderr: bool = False):
-    """A rich console; when piped, wide enough that tables do not fold model names."""
-    from rich.console import Console
+    """A rich console as wide as the terminal; when piped, $COLUMNS or 80 columns, no colour."""
+    from certiloop.proofs.cli import ui
 
-    probe = Console(stderr=stderr)
-    return probe if probe.is_terminal else Console(stderr=stderr, width=140)
+    return ui.console(stderr)
 
 
 def cmd_list(as_json: bool = False) -> int:
-    from rich.table import Table
+    from rich.markup import escape
 
     from certiloop.models import library
+    from certiloop.proofs.cli import ui
 
     if as_json:
         print(json.dumps([{"model": n, "expected": library.get(n).expected,
                            "description": library.get(n).description} for n in library.names()], indent=2))
         return EXIT_OK
-    table = Table()
+    out = ui.console()
+    table = ui.table(out)
     table.add_column("model", no_wrap=True)
     table.add_column("expected", no_wrap=True)
-    table.add_column("what it is")
+    table.add_column("what it is", min_width=20)
     for name in library.names():
         t = library.get(name)
-        table.add_row(name, t.expected, t.description)
-    console().print(table)
+        table.add_row(escape(name), t.expected, escape(t.description))
+    if _narrowest(out, table) <= out.width:
+        out.print(table)
+    else:  # names too long for a table at this width: a paragraph per model
+        for name in library.names():
+            ui.say(out, f"{name} ({library.get(name).expected}): {library.get(name).description}")
     return EXIT_OK
+
+
+def _narrowest(out, table) -> int:
+    """The width `table` needs with its wrapping columns squeezed to their minimum."""
+    from rich.measure import Measurement
+
+    return Measurement.get(out, out.options, table).minimum
 
 
 def _check_common(args: argparse.Namespace) -> None:
@@ -223,68 +251,82 @@ def _check_common(args: argparse.Namespace) -> None:
     _need_cvc5(args)
 
 
+def _check_outputs(*outputs: tuple[str, str | None, str]) -> None:
+    """(flag, path, what) for every output: 'file', 'file or -' (stdout) or 'folder'. All are
+    checked before any work, so a typo does not cost a whole run."""
+    from certiloop.proofs.cli import guards
+
+    for flag, name, what in outputs:
+        guards.check_output(flag, name, folder=what == "folder", stdout_ok=what == "file or -")
+
+
+def _json_payload(done: list[dict], selected: int, single: bool = True):
+    """The --json document: one object for one model (when `single`), else a list; an
+    interrupted run's is an object marked partial with the models finished so far."""
+    if len(done) < selected:
+        return {"partial": True, "finished": len(done), "selected": selected, "results": done}
+    return done[0] if single and len(done) == 1 else done
+
+
+def _write_json(target: str | None, payload) -> None:
+    if not target:
+        return
+    text = json.dumps(payload, indent=2)
+    if target == "-":
+        print(text)
+    else:
+        Path(target).write_text(text + "\n")
+
+
 def cmd_gate(args: argparse.Namespace) -> int:
     _check_common(args)
     if args.falsify_examples < 1:
         raise BadInput(f"--falsify-examples must be at least 1, got {args.falsify_examples}")
-    from rich.console import Console
-    from rich.table import Table
-
+    _check_outputs(("--json", args.json, "file"), ("--junit", args.junit, "file"),
+                   ("--markdown", args.markdown, "file"), ("--cache", args.cache, "folder"))
+    from certiloop.proofs.cli import ui
     from certiloop.proofs.cli.gate import GateOptions, run_gate
-    from certiloop.proofs.cli.gate_report import junit, markdown
+    from certiloop.proofs.cli.gate_view import show_gate
     from certiloop.proofs.cli.loading import load_all, project_models
-    from certiloop.proofs.cli.report import verdict_text
     from certiloop.proofs.engine.cache import Cache
     from certiloop.proofs.engine.prover import Prover
 
     theorems = load_all(args.models or project_models())
     cache = None if args.no_cache else Cache(Path(args.cache) if args.cache else None)
     opts = GateOptions(falsify_examples=args.falsify_examples, cross_check=args.cross_check)
-    out, err = console(), Console(stderr=True)
+    level = ui.verbosity(args)
     start = time.perf_counter()
-    with Prover(jobs=args.jobs, budget=_budget(args), executor=args.executor) as prover:
-        if err.is_terminal:
-            with err.status("gate") as status:
-                entries = run_gate(theorems, prover, opts, cache,
-                                   on_model=lambda e: status.update(f"gate: {e.model} done"))
-        else:
-            entries = run_gate(theorems, prover, opts, cache)
-    table = Table(title="certiloop gate")
-    columns = ("model", "expected", "verdict", "obligations", "step runs", "falsifier", "replay", "kernel",
-               *(("cvc5",) if opts.cross_check else ()), "s", "gate")
-    for col in columns:
-        table.add_column(col, no_wrap=col != "model", overflow="fold")
-    for e in entries:
-        proved = sum(o["verdict"] == "proved" for o in e.obligations)
-        replay = "-" if e.replay is None else ("violates" if e.replay["violated"] else "FAILS")
-        kernel = "-" if e.kernel is None else ("matches" if not e.kernel else "DRIFTED")
-        runs = "-" if e.nonblocking is None else verdict_text(e.nonblocking["verdict"])
-        cvc5 = (() if not opts.cross_check else
-                (f"{e.cross_check['confirmed']}/{e.cross_check['checked']}"
-                 + (" DISAGREES" if e.cross_check["disagreements"] else ""),) if e.cross_check else ("-",))
-        table.add_row(e.model, e.expected, verdict_text(e.verdict), f"{proved}/{len(e.obligations)}", runs,
-                      e.falsify.get("verdict", "-"), replay, kernel, *cvc5,
-                      f"{e.seconds:.2f}" + (" (cached)" if e.cached else ""),
-                      "[green]PASS[/]" if e.passed else "[bold red]FAIL[/]")
-    out.print(table)
-    failed = [e for e in entries if not e.passed]
-    for e in failed:
-        out.print(f"FAIL {e.model}: {e.message}", highlight=False, markup=False)
+    entries: list = []
+    try:
+        with Prover(jobs=args.jobs, budget=_budget(args), executor=args.executor) as prover, \
+                ui.ModelProgress("gate:", len(theorems), level > ui.QUIET) as progress:
+            run_gate(theorems, prover, opts, cache, on_start=progress.model, into=entries)
+    except KeyboardInterrupt:
+        _gate_reports(args, entries, len(theorems))
+        raise
     cached = f", {cache.hits} from the cache" if cache and cache.hits else ""
-    out.print(f"{len(entries) - len(failed)} passed, {len(failed)} failed{cached} "
-              f"({time.perf_counter() - start:.1f} s)", highlight=False)
-    if args.json:
-        Path(args.json).write_text(json.dumps([e.to_json() for e in entries], indent=2) + "\n")
-    if args.junit:
-        Path(args.junit).write_text(junit(entries))
-    if args.markdown:
-        with open(args.markdown, "a") as fh:  # CI summary files are appended to
-            fh.write(markdown(entries))
+    show_gate(console(), entries, opts.cross_check, level, f"{cached} ({time.perf_counter() - start:.1f} s)")
+    _gate_reports(args, entries, len(theorems))
     if any(e.alarm for e in entries):
         print("certiloop: SOUNDNESS ALARM: an internal inconsistency (see FAIL above); "
               "please report this certiloop bug", file=sys.stderr)
         return EXIT_INCONSISTENT
-    return EXIT_OK if not failed else EXIT_FAILED
+    return EXIT_OK if all(e.passed for e in entries) else EXIT_FAILED
+
+
+def _gate_reports(args: argparse.Namespace, entries: list, selected: int) -> None:
+    """--json, --junit and --markdown; after Ctrl-C, for the models finished, marked partial."""
+    from certiloop.proofs.cli.gate_report import junit, markdown
+
+    partial = len(entries) < selected
+    if args.json:
+        data = [e.to_json() for e in entries]
+        _write_json(args.json, _json_payload(data, selected, single=False) if partial else data)
+    if args.junit:
+        Path(args.junit).write_text(junit(entries, selected))
+    if args.markdown:
+        with open(args.markdown, "a") as fh:  # CI summary files are appended to
+            fh.write(markdown(entries, selected))
 
 
 def _budget(args: argparse.Namespace):
@@ -295,42 +337,40 @@ def _budget(args: argparse.Namespace):
 
 def cmd_prove(args: argparse.Namespace) -> int:
     _check_common(args)
+    _check_outputs(("--json", args.json, "file or -"), ("--smtlib", args.smtlib, "folder"))
     from certiloop.proofs.cli.loading import load_all
 
     theorems = load_all(args.models)  # all bad names fail before any work
 
-    from rich.console import Console
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
+    from certiloop.proofs.cli import ui
     from certiloop.proofs.cli.report import show_result
     from certiloop.proofs.engine.prover import Prover
 
-    out = console(stderr=args.json == "-")
-    err = Console(stderr=True)
-    results = []
-    with Prover(jobs=args.jobs, budget=_budget(args), executor=args.executor) as prover:
-        for theorem in theorems:
-            smt_dir = Path(args.smtlib) if args.smtlib else None
-            if err.is_terminal:
-                with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                              TimeElapsedColumn(), console=err, transient=True) as bar:
-                    task = bar.add_task(f"proving {theorem.name}", total=None)
-                    result = prover.prove(theorem,
-                                          on_start=lambda n, t=task: bar.update(t, total=n),
-                                          on_result=lambda r, t=task: bar.advance(t), smtlib_dir=smt_dir)
-            else:
-                result = prover.prove(theorem, smtlib_dir=smt_dir)
-            if args.cross_check:
-                _cross_check(result, err)
-            show_result(out, result, verbose=args.verbose)
-            results.append(result)
-    if args.json:
-        payload = results[0].to_json() if len(results) == 1 else [r.to_json() for r in results]
-        text = json.dumps(payload, indent=2)
-        if args.json == "-":
-            print(text)
-        else:
-            Path(args.json).write_text(text + "\n")
+    out, level = console(stderr=args.json == "-"), ui.verbosity(args)
+    smt_dir = Path(args.smtlib) if args.smtlib else None
+    start, results = time.perf_counter(), []
+    try:
+        with Prover(jobs=args.jobs, budget=_budget(args), executor=args.executor) as prover, \
+                ui.ModelProgress("proving", len(theorems), level > ui.QUIET) as progress:
+            for theorem in theorems:
+                progress.model(theorem.name)
+                result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
+                                      smtlib_dir=smt_dir)
+                if args.cross_check:
+                    _cross_check(result)
+                show_result(out, result, level)
+                results.append(result)
+    except KeyboardInterrupt:
+        _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
+        raise
+    proved = sum(r.verdict == "proved" for r in results)
+    ui.say(out, f"{proved} of {len(results)} model{'s' * (len(results) != 1)} proved "
+                f"({time.perf_counter() - start:.1f} s)")
+    _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
+    return _prove_exit(results)
+
+
+def _prove_exit(results: list) -> int:
     alarms = [r for r in results if r.extra.get("cross_check", {}).get("disagreements")]
     for r in alarms:
         print(f"certiloop: SOUNDNESS ALARM: cvc5 disagrees with z3 on {r.model}: "
@@ -346,16 +386,11 @@ def cmd_prove(args: argparse.Namespace) -> int:
     return EXIT_OK if all_proved else EXIT_FAILED
 
 
-def _cross_check(result, err) -> None:
+def _cross_check(result) -> None:
     """cvc5's opinion on every form z3 proved, kept in the result (shown, and in --json)."""
     from certiloop.proofs.engine.second_opinion import second_opinion
 
-    obligations = result.obligations + (result.nonblocking or [])
-    if err.is_terminal:
-        with err.status(f"cross-checking {result.model} with cvc5"):
-            opinion = second_opinion(obligations)
-    else:
-        opinion = second_opinion(obligations)
+    opinion = second_opinion(result.obligations + (result.nonblocking or []))
     result.extra["cross_check"] = {**opinion.to_json(), "summary": opinion.summary}
 
 
@@ -363,21 +398,28 @@ def cmd_extract(args: argparse.Namespace) -> int:
     """Extract only what is proved: the model must prove now, or have a cache entry for its
     exact claim (canonical text, certiloop source, z3 and sympy versions)."""
     _check_common(args)
+    _check_outputs(("--output", args.output, "file"), ("--cache", args.cache, "folder"))
     from certiloop.kernel.extract import extract
+    from certiloop.proofs.cli import ui
     from certiloop.proofs.cli.loading import load
+    from certiloop.proofs.cli.report import show_result
     from certiloop.proofs.engine.cache import Cache
     from certiloop.proofs.engine.prover import Prover
 
     theorem = load(args.model)
-    out_path = _writable(args.output) if args.output else None
+    level, err = ui.verbosity(args), console(stderr=True)
     cache = None if args.no_cache else Cache(Path(args.cache) if args.cache else None)
     key = cache.key("proof", theorem.canonical) if cache else None
     cached = cache.get(key) if cache else None
     if cached is not None and cached.get("verdict") == "proved":
         verdict, reason = "proved", ""
+        if level == ui.VERBOSE:
+            ui.say(err, f"{theorem.name}: proved (from the proof cache)")
     else:
         with Prover(jobs=args.jobs, budget=_budget(args)) as prover:
             result = prover.prove(theorem)
+        if level == ui.VERBOSE:
+            show_result(err, result, level)
         verdict, reason = result.verdict, result.reason
         if cache and verdict == "proved":
             cache.put(key, {"model": theorem.name, "verdict": verdict})
@@ -387,26 +429,16 @@ def cmd_extract(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_FAILED
     source = extract(theorem)
-    if out_path is not None:
-        out_path.write_text(source)
-        console(stderr=True).print(f"wrote {args.output} (from the proved model {theorem.name})",
-                                   highlight=False, markup=False)
+    if args.output:
+        Path(args.output).write_text(source)
+        if level > ui.QUIET:
+            ui.say(err, f"wrote {args.output} (from the proved model {theorem.name})")
     else:
         sys.stdout.write(source)
     return EXIT_OK
 
 
-def _writable(name: str) -> Path:
-    """An output path whose folder exists (checked before any work is done)."""
-    path = Path(name)
-    if not path.parent.is_dir():
-        raise BadInput(f"cannot write {name}: the folder {path.parent} does not exist")
-    if path.is_dir():
-        raise BadInput(f"cannot write {name}: it is a folder")
-    return path
-
-
-def cmd_falsify(args: argparse.Namespace) -> int:
+def _check_falsify_args(args: argparse.Namespace) -> None:
     if args.max_examples < 1:
         raise BadInput(f"--max-examples must be at least 1, got {args.max_examples}")
     if args.max_family < 1:
@@ -415,49 +447,60 @@ def cmd_falsify(args: argparse.Namespace) -> int:
         raise BadInput(f"--steps must be at least 1, got {args.steps}")
     if args.plot and not args.plot.lower().endswith(".png"):
         raise BadInput(f"--plot writes a PNG file; give a name ending in .png, not {args.plot!r}")
+    database = None if args.database.lower() == "none" else args.database
+    _check_outputs(("--json", args.json, "file or -"), ("--plot", args.plot, "file"),
+                   ("--database", database, "folder"))
     if args.plot:
         try:
             import matplotlib  # noqa: F401
         except ImportError:
             raise BadInput("--plot needs matplotlib: pip install 'certiloop[plot]'") from None
+
+
+def cmd_falsify(args: argparse.Namespace) -> int:
+    _check_falsify_args(args)
     from certiloop.proofs.cli.loading import load_all
 
     theorems = load_all(args.models)
 
-    from rich.console import Console
-
     from certiloop.falsify.report import show_falsification
     from certiloop.falsify.search import Options, falsify
+    from certiloop.proofs.cli import ui
 
     database = None if args.database.lower() == "none" else Path(args.database)
     opts = Options(max_examples=args.max_examples, seed=args.seed, families=(1, args.max_family),
                    max_steps=args.steps, database=database)
-    out, err = console(stderr=args.json == "-"), Console(stderr=True)
-    results = []
-    for theorem in theorems:
-        if err.is_terminal:
-            with err.status(f"falsifying {theorem.name} (up to {args.max_examples} examples)"):
+    out, level = console(stderr=args.json == "-"), ui.verbosity(args)
+    start, results = time.perf_counter(), []
+    try:
+        with ui.ModelProgress("falsifying", len(theorems), level > ui.QUIET) as progress:
+            for theorem in theorems:
+                progress.model(theorem.name)
                 result = falsify(theorem, opts)
-        else:
-            result = falsify(theorem, opts)
-        show_falsification(out, result)
-        if args.plot and result.run is not None:
-            from certiloop.falsify.plots import plot_run
+                show_falsification(out, result, level)
+                if args.plot and result.run is not None:
+                    _plot(args.plot, result, theorem.name, len(theorems) > 1, out, level)
+                results.append(result)
+    except KeyboardInterrupt:
+        _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
+        raise
+    found = sum(r.found for r in results)
+    ui.say(out, f"{found} of {len(results)} model{'s' * (len(results) != 1)} with a violating run "
+                f"({time.perf_counter() - start:.1f} s)")
+    _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
+    return EXIT_FAILED if found else EXIT_OK
 
-            target = Path(args.plot)
-            if len(theorems) > 1:
-                target = target.with_name(f"{target.stem}-{theorem.name}{target.suffix}")
-            plot_run(result.run, theorem.name, target)
-            out.print(f"  plot: {target}", highlight=False, markup=False)
-        results.append(result)
-    if args.json:
-        payload = results[0].to_json() if len(results) == 1 else [r.to_json() for r in results]
-        text = json.dumps(payload, indent=2)
-        if args.json == "-":
-            print(text)
-        else:
-            Path(args.json).write_text(text + "\n")
-    return EXIT_FAILED if any(r.found for r in results) else EXIT_OK
+
+def _plot(name: str, result, model: str, several: bool, out, level: int) -> None:
+    from certiloop.falsify.plots import plot_run
+    from certiloop.proofs.cli import ui
+
+    target = Path(name)
+    if several:
+        target = target.with_name(f"{target.stem}-{model}{target.suffix}")
+    plot_run(result.run, model, target)
+    if level > ui.QUIET:
+        ui.say(out, f"  plot: {target}")
 
 
 if __name__ == "__main__":  # pragma: no cover

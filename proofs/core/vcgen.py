@@ -53,6 +53,10 @@ class Obligation:
     kind: str = "safety"  # safety | defined (no division by zero) | vacuity (the step has a run)
     # (how, formula): formulas that imply this one by construction, worth trying first
     stronger: tuple[tuple[str, Node], ...] = field(default=(), compare=False)
+    # the incomplete proof rule (dW, dI, a loop invariant, ...) this obligation depends on, if
+    # any: when it is false, that rule failed to apply, which does not make the claim false.
+    # A label for reports only; it never affects a verdict.
+    rule: str = field(default="", compare=False)
 
     @property
     def text(self) -> str:
@@ -86,20 +90,25 @@ class State:
     facts: tuple[Node, ...]
     env: dict[str, Node]
     path: tuple[str, ...]
+    rules: tuple[str, ...] = ()  # incomplete rules on the way here (see Obligation.rule)
 
     def value(self, n: Node) -> Node:
         return substitute(n, self.env)
 
     def assume(self, *fs: Node) -> "State":
-        return State(self.facts + tuple(fs), self.env, self.path)
+        return State(self.facts + tuple(fs), self.env, self.path, self.rules)
 
     def bind(self, updates: dict[str, Node]) -> "State":
         env = dict(self.env)
         env.update(updates)
-        return State(self.facts, env, self.path)
+        return State(self.facts, env, self.path, self.rules)
 
     def at(self, label: str) -> "State":
-        return State(self.facts, self.env, self.path + (label,))
+        return State(self.facts, self.env, self.path + (label,), self.rules)
+
+    def via(self, label: str, rule: str) -> "State":
+        """`at(label)` through an incomplete rule: a false obligation past it is the rule failing."""
+        return State(self.facts, self.env, self.path + (label,), self.rules + (rule,))
 
 
 Emit = Callable[[State, Node, str], None]
@@ -130,7 +139,7 @@ class VCGen:
         path = " / ".join(st.path + (what,))
         oid = f"o{len(self.obligations) + 1}"
         self.obligations.append(Obligation(oid, path, Implies(And(*facts), goal), self.theorem.name,
-                                           self.theorem.abbreviations, kind))
+                                           self.theorem.abbreviations, kind, rule=_blamed(st.rules)))
 
     def require_defined(self, st: State, what: str, *parts: Node, annotation: bool = False) -> None:
         """An obligation that the terms and formulas `parts`, evaluated in this state, never
@@ -190,7 +199,9 @@ class VCGen:
         inv = p.invariant
         if inv is None:
             inv = self.theorem.guarantee
-        init = st.at(f"{p.label} init")
+        # with the guarantee as invariant, "holds initially" is exact: zero iterations are a run
+        init = st.at(f"{p.label} init") if p.invariant is None else st.via(f"{p.label} init", "loop-init")
+        assumed = "guarantee-as-invariant" if p.invariant is None else "loop-invariant"
         self.require_defined(init, "the invariant", inv, annotation=True)
         self.emit(init, inv, "invariant holds initially")
         inside = self.havoc(st, written(p.body), f"in {p.label}")
@@ -200,8 +211,8 @@ class VCGen:
             self.require_defined(s, "the invariant", inv, annotation=True)
             self.emit(s, inv, "invariant preserved")
 
-        self.exec(p.body, inside.at(f"{p.label} step"), preserved)
-        k(inside.at(f"{p.label} use"))
+        self.exec(p.body, inside.via(f"{p.label} step", assumed), preserved)
+        k(inside.via(f"{p.label} use", assumed))
 
     def _ode_region(self, p: ODE, st: State) -> None:
         """Wherever the flow may go (any values of its variables inside the domain), its
@@ -230,7 +241,7 @@ class VCGen:
         sol = polynomial_solution(p, s)
         if sol is None:  # differential weakening: anything inside the domain
             after = self.havoc(st, {v.payload: v for v in p.variables}, "after ODE")
-            k(after.assume(after.value(p.domain)).at("ODE dW"))
+            k(after.assume(after.value(p.domain)).via("ODE dW", "dW"))
             return
         tau = self.names.fresh("t", why="ODE duration")
         along = holds_along(p.domain, sol, tau, s)
@@ -241,12 +252,21 @@ class VCGen:
         after = self.havoc(st, {v.payload: v for v in p.variables}, "during ODE")
         known = [p.domain]
         for n, inv in enumerate(p.invariants, 1):
-            self.emit(st.at(f"ODE dI {n} init"), inv, "holds initially")
+            self.emit(st.via(f"ODE dI {n} init", "dI-init"), inv, "holds initially")
             cond = dI_condition(inv, p)
-            self.emit(after.assume(*(after.value(f) for f in known)).at(f"ODE dI {n}"), cond,
+            self.emit(after.assume(*(after.value(f) for f in known)).via(f"ODE dI {n}", "dI"), cond,
                       "derivative condition")
             known.append(inv)
-        k(after.assume(*(after.value(f) for f in known)).at("ODE dC/dW"))
+        k(after.assume(*(after.value(f) for f in known)).via("ODE dC/dW", "dC"))
+
+
+# which incomplete rule to blame when several lie on a path: an ODE that lost information
+# explains a failure downstream better than the loop around it
+BLAME_ORDER = ("dW", "dI", "dI-init", "dC", "guarantee-as-invariant", "loop-invariant", "loop-init")
+
+
+def _blamed(rules: tuple[str, ...]) -> str:
+    return min(rules, key=BLAME_ORDER.index, default="")
 
 
 def _root(target: Node) -> Node:

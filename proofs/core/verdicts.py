@@ -32,6 +32,7 @@ class ObligationResult:
     reason: str = ""
     counterexample: dict[str, str] | None = None
     check: str = ""  # how a counterexample was confirmed
+    rule: str = ""  # the incomplete rule it depends on (see vcgen.Obligation.rule); a label only
     raw_model: dict[str, Any] | None = field(default=None, repr=False)
     # the form z3 proved (the obligation or a weakening of it), for a second opinion (cvc5)
     proved_formula: Any = field(default=None, repr=False)
@@ -135,7 +136,8 @@ def decide_theorem(obligations: list[ObligationResult], run: RunEvidence | None,
         return Decision("refuted", "a run that violates the guarantee was found, re-checked exactly, "
                         "replayed and its flows confirmed")
     first = failed[0]
-    why = f"{first.path}: {first.verdict}{': ' + first.reason if first.reason else ''}"
+    shown = "rule failed" if first.verdict == "refuted" and first.rule else first.verdict
+    why = f"{first.path}: {shown}{': ' + first.reason if first.reason else ''}"
     if run is not None:
         return Decision("unknown", f"{len(failed)} obligation(s) not proved (first: {why}); a violating run "
                         f"was found but could not be confirmed: {run.detail}")

@@ -20,6 +20,12 @@ def discharge_one(ob: Obligation, budget: Budget | None = None, quick: bool = Fa
     has a counterexample the obligation is probably false, and the raw forms get a share.
     quick: the report beside a refutation, where the verdict is already decided by the run.
     keep_model keeps the raw solver model, which may hold live z3 handles."""
+    res = _discharge(ob, budget, quick, keep_model)
+    res.rule = ob.rule
+    return res
+
+
+def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: bool) -> ObligationResult:
     budget = budget or Budget()
     start = time.perf_counter()
     projected_cex = False

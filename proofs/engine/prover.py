@@ -48,6 +48,11 @@ class TheoremResult:
     def met_expectation(self) -> bool:
         return self.verdict == self.expected
 
+    def _repr_html_(self) -> str:  # notebook display
+        from certiloop.proofs.engine.display import result_html
+
+        return result_html(self.to_json())
+
     def to_json(self) -> dict[str, Any]:
         return {
             "model": self.model,
@@ -119,13 +124,17 @@ class Prover:
     def __enter__(self) -> "Prover":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, exc_type=None, *exc) -> None:
         if self._pool is None:
             return
         client = getattr(self._pool, "_certiloop_client", None)
         if client is not None:  # a Dask executor: leave the cluster running, drop our connection
             self._pool.shutdown(wait=False)
             client.close()
+        elif exc_type is KeyboardInterrupt:  # Ctrl-C: stop the workers, do not wait for them
+            for worker in list((getattr(self._pool, "_processes", None) or {}).values()):
+                worker.terminate()
+            self._pool.shutdown(wait=False, cancel_futures=True)
         else:
             self._pool.shutdown(cancel_futures=True)
 
@@ -199,6 +208,11 @@ class Prover:
 
     def _run(self, fn, *args):
         return self._submit(fn, *args).result()
+
+    def submit(self, fn, *args) -> Future:
+        """Run `fn(*args)` on the prover's workers (in this process with one job), e.g. the
+        gate's falsifier beside the proof: `fn` and its arguments must pickle."""
+        return self._submit(fn, *args)
 
     def _submit(self, fn, *args) -> Future:
         pool = self._executor()

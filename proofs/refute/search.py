@@ -75,6 +75,14 @@ class Refutation:
         """The steps a reader wants (choices are visible in the paths)."""
         return [s for s in self.trace if s.kind != "choice"]
 
+    def _repr_html_(self) -> str:
+        """Notebook display: the run as `certiloop prove` prints it."""
+        from html import escape
+
+        from certiloop.proofs.engine.display import run_lines
+
+        return "<pre>" + escape("\n".join(run_lines(self.to_json()))) + "</pre>"
+
     def to_json(self) -> dict[str, Any]:
         return {"depth": self.depth, "initial": self.initial,
                 "frame": self.frame, "trace": [s.to_json() for s in self.shown], "violated": self.violated,
