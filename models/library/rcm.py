@@ -93,8 +93,7 @@ AZ = [Reals(f"AZ{i}1 AZ{i}2 AZ{i}3 AZ{i}4") for i in (1, 2)]   # the entries of 
 def _nullspace(name: str, sign: int, expected: str, description: str) -> Theorem:
     entries = [assign(AZ[i][j], _inner(ra, rz))
                for i, ra in enumerate(_ax_rows()) for j, rz in enumerate(_zx_rows(sign))]
-    frame = And(_dot(n_, n_) == 1, _dot(a_, a_) == 1, _dot(o_, o_) == 1,
-                _dot(a_, o_) == 0, _dot(a_, n_) == 0, _dot(o_, n_) == 0)
+    frame = And(_dot(a_, n_) == 0, _dot(o_, n_) == 0)   # B_c ⟂ n: all that (15) needs
     return Theorem(
         name=name,
         assumptions=frame,
@@ -106,8 +105,9 @@ def _nullspace(name: str, sign: int, expected: str, description: str) -> Theorem
 
 
 def nullspace() -> Theorem:
-    """(15): A_x Z_x^T = 0, all 8 entries, for any tip, any RCM point and any tool frame
-    with B_c orthogonal to the axis n (3-D components, exact)."""
+    """(15): A_x Z_x^T = 0, all 8 entries, for any tip position, any axis n and any
+    B_c = [a o] orthogonal to it (3-D components, exact; unit lengths and a ⟂ o are not
+    needed, so they are not assumed)."""
     return _nullspace("rcm.nullspace", 1, "proved",
                       "(15): A_x Z_x^T = 0 entry by entry, for any tip, RCM point and frame with B_c ⟂ n")
 
