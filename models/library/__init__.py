@@ -7,7 +7,7 @@ from typing import Callable
 
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
-from certiloop.models.library import cfmpa, sbs, textbook
+from certiloop.models.library import cfmpa, rcm, sbs, textbook
 
 _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl1": sbs.ctrl1,
@@ -32,6 +32,21 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "textbook.water_tank_late_check": textbook.water_tank_late_check,
     "textbook.cart_forward": textbook.cart_forward,
     "textbook.cart_may_brake": textbook.cart_may_brake,
+    "rcm.nullspace": rcm.nullspace,
+    "rcm.nullspace_wrong_sign": rcm.nullspace_wrong_sign,
+    "rcm.decoupling": rcm.decoupling,
+    "rcm.decoupling_zw_mapping": rcm.decoupling_zw_mapping,
+    "rcm.constraint_set_invariant": rcm.constraint_set_invariant,
+    "rcm.constraint_exponential": rcm.constraint_exponential,
+    "rcm.constraint_euler_4ms": rcm.constraint_euler_4ms,
+    "rcm.constraint_euler_stiff": rcm.constraint_euler_stiff,
+    "rcm.barrier_continuous": rcm.barrier_continuous,
+    "rcm.barrier_clearance": rcm.barrier_clearance,
+    "rcm.damping_bounds": rcm.damping_bounds,
+    "rcm.axial_euler_4ms": rcm.axial_euler_4ms,
+    "rcm.barrier_off_s": rcm.barrier_off_s,
+    "rcm.axial_guard": rcm.axial_guard,
+    "rcm.axial_guard_half_margin": rcm.axial_guard_half_margin,
 }
 
 
