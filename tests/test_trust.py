@@ -9,10 +9,13 @@ from certiloop.models import (
     ForAll,
     Int,
     ModelError,
+    Not,
     Real,
     Reals,
     Theorem,
     assign,
+    branch,
+    choice,
     havoc,
     ode,
     seq,
@@ -207,3 +210,16 @@ def test_gate_fails_a_model_whose_assumptions_no_run_can_meet(tmp_path, capsys):
                      "vacuous = Theorem('u.vacuous', And(x > 1, x < 0), assign(y, x), y > 5)\n")
     assert main(["gate", f"{model}:vacuous", "--no-cache", "--falsify-examples", "50"]) == 1
     assert "assumptions satisfiable" in capsys.readouterr().out
+
+
+def test_a_real_variable_set_to_an_integer_literal_in_one_branch_stays_real():
+    """The run search once gave `x` the sort of its first branch's value: after `x := 0` it
+    became an integer, and the run through `x := y/3` could not be found (unknown)."""
+    x, y = Reals("x y")
+    program = choice(branch("zero", assign(x, 0)), branch("third", assign(x, y / 3)))
+    theorem = Theorem(name="choice_sort", assumptions=y == 1, program=program,
+                      guarantee=Not(x == y / 3), expected="refuted")
+    with Prover(jobs=1) as prover:
+        result = prover.prove(theorem)
+    assert result.verdict == "refuted" and result.run.confirmed
+    assert result.refutation.raw_initial["y"] == 1

@@ -20,6 +20,7 @@ from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Pro
 from certiloop.models.lang.terms import (
     BOOL,
     FALSE,
+    REAL,
     And,
     Iff,
     Node,
@@ -43,8 +44,10 @@ class Encoder:
         self.record: dict[int, str] = {}  # statement occurrence -> its fresh symbol
 
     def _bind(self, name: str, sort, value: Node, constraints: list[Node]) -> Node:
-        if value.op in ("var", "const", "true", "false"):
+        if value.op in ("var", "const", "true", "false") and (value.sort == sort or sort is None):
             return value
+        if value.op == "const" and sort == REAL:  # `x := 0` keeps x real (a merge takes its sort)
+            return Node("const", (), REAL, value.payload)
         fresh = self.names.fresh(name, sort, "value")
         constraints.append(_equal(fresh, value))
         return fresh
