@@ -6,6 +6,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from certiloop.models import library
 from certiloop.proofs.engine import Prover
 
@@ -50,6 +52,7 @@ def _verdicts(name: str) -> tuple[str, list[str]]:
     return result.verdict, [o.verdict for o in result.obligations]
 
 
+@pytest.mark.slow
 def test_a_heavy_refuted_model_gets_the_same_verdicts_with_both_cores_busy():
     idle = _verdicts("sbs.ctrl2_last_wins")
     ctx = multiprocessing.get_context("fork")

@@ -23,8 +23,9 @@ REFUTED = [n for n in library.names() if library.get(n).expected == "refuted"]
 PROVED_SBS = ["sbs.ctrl1", "sbs.predictive", "sbs.ctrl2_2d", "sbs.ctrl2"]
 
 
-def _search(name, **kw):
-    return falsify(library.get(name), Options(seed=0, database=None, **kw))
+def _search(name, shrink=False, **kw):
+    """Shrinking (up to 15 s a model) only where a test looks at the shrunk run."""
+    return falsify(library.get(name), Options(seed=0, database=None, shrink=shrink, **kw))
 
 
 # ------------------------------------------------------------------ interpreter
@@ -113,7 +114,7 @@ def test_predictive_multi_counterexample_has_planes_facing_each_other():
 
 
 def test_immediate_control_crosses_the_buffer_within_one_step():
-    result = _search("sbs.immediate", max_examples=2000)
+    result = _search("sbs.immediate", max_examples=2000, shrink=True)
     before, after = result.run.checkpoints[-2], result.run.checkpoints[-1]
     assert before.state["py"] >= 0 > after.state["py"]
     assert after.step == before.step + 1 and after.time - before.time <= after.state["e"] + 1e-12

@@ -61,7 +61,15 @@ def prover():
         yield p
 
 
-@pytest.mark.parametrize("name", library.names())
+# the big models' mutants take minutes: they run in the slow set (`-m slow`, run by CI)
+BIG = ("sbs.ctrl2", "sbs.predictive_multi", "rcm.", "raven.")
+
+
+def _sampled(name: str):
+    return pytest.param(name, marks=pytest.mark.slow) if name.startswith(BIG) else name
+
+
+@pytest.mark.parametrize("name", [_sampled(n) for n in library.names()])
 def test_sampled_mutants_that_prove_have_no_violating_run(prover, name):
     proved, refuted, other = _check(name, SAMPLE, prover, examples=200)
     assert proved + refuted + other > 0
