@@ -42,7 +42,8 @@ def _models(exe: str) -> set[str]:
     if out.returncode == 0:
         return {m["model"] for m in json.loads(out.stdout)}
     # an install without `list --json`: the model names in the first column of its table
-    table = subprocess.run([exe, "list"], capture_output=True, text=True, env={**os.environ, "COLUMNS": "200"}).stdout
+    wide = {**os.environ, "COLUMNS": "200"}
+    table = subprocess.run([exe, "list"], capture_output=True, text=True, env=wide).stdout
     return set(re.findall(r"^\W*([a-z0-9_]+\.[a-z0-9_]+)\s", table, flags=re.M))
 
 

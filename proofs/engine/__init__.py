@@ -1,8 +1,18 @@
 """Scheduling obligations over workers, deterministic budgets and the result cache
-(outside the trusted core: it can only call it)."""
+(outside the trusted core: it can only call it).
 
-from certiloop.proofs.engine.budget import Budget
-from certiloop.proofs.engine.discharge import discharge_one
-from certiloop.proofs.engine.prover import Prover, TheoremResult, confirm_run, write_smtlib
+The names are loaded on first use (PEP 562): `certiloop --help` reads the budget defaults
+from `engine.budget` without importing z3 and sympy through the prover."""
 
-__all__ = ["Budget", "Prover", "TheoremResult", "confirm_run", "discharge_one", "write_smtlib"]
+from importlib import import_module
+
+_WHERE = {"Budget": "budget", "discharge_one": "discharge", "Prover": "prover",
+          "TheoremResult": "prover", "confirm_run": "prover", "write_smtlib": "prover"}
+
+__all__ = sorted(_WHERE)
+
+
+def __getattr__(name: str):
+    if name in _WHERE:
+        return getattr(import_module(f"{__name__}.{_WHERE[name]}"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
