@@ -7,7 +7,7 @@ from typing import Callable
 
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
-from certiloop.models.library import cfmpa, sbs, textbook
+from certiloop.models.library import cfmpa, raven, sbs, textbook
 
 _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl1": sbs.ctrl1,
@@ -32,6 +32,14 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "textbook.water_tank_late_check": textbook.water_tank_late_check,
     "textbook.cart_forward": textbook.cart_forward,
     "textbook.cart_may_brake": textbook.cart_may_brake,
+    "raven.deviation_stop": raven.deviation_stop,
+    "raven.deviation_small_margin": raven.deviation_small_margin,
+    "raven.deviation_stop_3d": raven.deviation_stop_3d,
+    "raven.deviation_haptic_only": raven.deviation_haptic_only,
+    "raven.residual_drift": raven.residual_drift,
+    "raven.jump_detected": raven.jump_detected,
+    "raven.jump_above_tol": raven.jump_above_tol,
+    "raven.haptic_force": raven.haptic_force,
 }
 
 
