@@ -123,7 +123,8 @@ def deviation_haptic_only() -> Theorem:
     admittance G, so the command is v = G F d (d = sign(d_m - d_r), eq 6), which the fixture
     still filters. Both the model and the robot receive it, so it never shrinks the
     deviation (e' = u), and the robot's distance changes at G F d + u: a fault pushing at U
-    above G Fsat wins. Starts with no deviation, the stop theorem's margin m >= tol + U eps."""
+    above G Fsat wins (the paper keeps Fsat low so that the cue does not interfere with
+    teleoperation). Starts with no deviation, with the stop theorem's margin m >= tol + U eps."""
     e = dr - dm
     haptic = if_(_beyond(e, tol),
                  seq(_abs(ae, e), _abs(aw, w), assign_min(F, Kp * ae + Kd * aw, Fsat),
@@ -134,15 +135,17 @@ def deviation_haptic_only() -> Theorem:
     command = seq(assign(v, G * F * dirn),
                   if_(dm + v * eps >= m, skip(), assign(v, (m - dm) / eps),
                       labels=("fixture admits the command", "fixture attenuates it to keep the model at m")))
-    step = seq(_fault(), haptic, command, assign(w, u), _plant())
+    step = seq(haptic, command, assign(w, u), _plant())
     return Theorem(
         name="raven.deviation_haptic_only",
-        assumptions=And(tol > 0, U >= 0, eps > 0, G > 0, Kp > 0, Kd >= 0, Fsat > 0, m >= tol + U * eps,
-                        dm >= m, dr == dm, w == 0),
+        # refuted even in this narrow setting (it helps the falsifier): one constant push at
+        # the full bound U, stronger than the cue's authority G Fsat
+        assumptions=And(tol > 0, eps > 0, G > 0, Kp > 0, Kd >= 0, Fsat > 0, G * Fsat < U, u == -U,
+                        m >= tol + U * eps, dm >= m, dr == dm, w == 0),
         program=loop(step, invariant=dm >= m, label="control loop"),
         guarantee=dr >= 0,
         expected="refuted",
-        constants=(m, tol, U, eps, G, Kp, Kd, Fsat),
+        constants=(m, tol, U, eps, G, Kp, Kd, Fsat, u),
         unroll=3,
         description="the paper's haptic-only response (eq 5 force, no stop): a push above G Fsat crosses",
     )
@@ -160,15 +163,18 @@ def residual_drift() -> Theorem:
     is the deviation at the previous check. A constant drift u with U eps < tol never trips
     it, and the deviation accumulates past the margin that makes the deviation monitor safe
     (m >= tol + U eps). The operator holds still and the fault is one constant drift: a run
-    of the general design too, and short enough for the falsifier's three periods."""
+    of the general design too, and (with tol/2 < U eps < tol) short enough for the
+    falsifier's three periods. Narrower assumptions only make a refutation stronger."""
     alarm = Or(stopped == 1, _beyond(dr - dm - e0, tol))
     react = if_(alarm, seq(assign(stopped, 1), assign(v, 0)), seq(assign(v, 0), assign(e0, dr - dm)),
                 labels=("residual > tol: stop", "residual <= tol: carry on, re-anchor"))
     drift = seq(assign(t, 0), ode({dm: v, dr: v + u * (1 - stopped), t: 1}, t <= eps))
     return Theorem(
         name="raven.residual_drift",
-        assumptions=And(tol > 0, eps > 0, U >= 0, U * eps < tol, _within(u, U), m >= tol + U * eps,
-                        dm >= m, dr == dm, e0 == 0, stopped == 0),
+        # refuted even in this narrow setting: the drift is the full U towards the boundary,
+        # between tol/2 and tol per period, and the margin exactly the stop theorem's
+        assumptions=And(tol > 0, eps > 0, U * eps < tol, 2 * U * eps > tol, u == -U, m == tol + U * eps,
+                        dm == m, dr == dm, e0 == 0, stopped == 0),
         program=loop(seq(react, drift), invariant=dr >= 0, label="control loop"),
         guarantee=dr >= 0,
         expected="refuted",
@@ -183,7 +189,7 @@ def residual_drift() -> Theorem:
 jumped, seen, jmp = Reals("jumped seen jmp")
 
 
-def _jump(name: str, big_enough, expected: str, description: str) -> Theorem:
+def _jump(name: str, jump_size: Program, assumed, expected: str, description: str) -> Theorem:
     """A sudden jump (Table 1, H3; an add-once on the command or encoder stream) moves the
     robot by jmp at any instant of a period; the next check must alarm. `seen` records that
     a check ran after the jump; the guarantee: seen = 1 -> stopped = 1."""
@@ -191,8 +197,7 @@ def _jump(name: str, big_enough, expected: str, description: str) -> Theorem:
     check = seq(if_(alarm, _BRAKE, seq(_fault(), havoc(v)),
                     labels=("deviation > tol: stop", "deviation <= tol: carry on")),
                 assign(seen, jumped))
-    maybe_jump = choice(branch("jump", test(jumped == 0), havoc(jmp), test(big_enough),
-                               assign(dr, dr + jmp), assign(jumped, 1)),
+    maybe_jump = choice(branch("jump", test(jumped == 0), jump_size, assign(dr, dr + jmp), assign(jumped, 1)),
                         branch("no jump", skip()))
     flow = ode({dm: v, dr: v + u, t: 1}, t <= eps)  # one period, split by the jump instant
     step = seq(check, assign(t, 0), flow, maybe_jump, flow)
@@ -201,8 +206,7 @@ def _jump(name: str, big_enough, expected: str, description: str) -> Theorem:
                     Or(stopped == 0, stopped == 1))
     return Theorem(
         name=name,
-        assumptions=And(tol > 0, U >= 0, eps > 0, _within(dr - dm, tol), stopped == 0, jumped == 0,
-                        seen == 0),
+        assumptions=And(tol > 0, U >= 0, eps > 0, assumed, stopped == 0, jumped == 0, seen == 0),
         program=loop(step, invariant=invariant, label="control loop"),
         guarantee=Implies(seen == 1, stopped == 1),
         expected=expected,
@@ -213,18 +217,21 @@ def _jump(name: str, big_enough, expected: str, description: str) -> Theorem:
 
 
 def jump_detected() -> Theorem:
-    """A jump of more than 2 tol + U eps is seen at the first check after it: the deviation
-    before it was at most tol at the last check, and the rest of the period moves it by at
-    most U eps."""
-    return _jump("raven.jump_detected", _beyond(jmp, 2 * tol + U * eps), "proved",
+    """A jump of more than 2 tol + U eps, either way, is seen at the first check after it:
+    the deviation was at most tol at the last check, and the rest of the period moves it by
+    at most U eps. Starts from any deviation the monitor accepts."""
+    return _jump("raven.jump_detected", seq(havoc(jmp), test(_beyond(jmp, 2 * tol + U * eps))),
+                 _within(dr - dm, tol), "proved",
                  "a jump > 2 tol + U eps raises the alarm at the first check after it")
 
 
 def jump_above_tol() -> Theorem:
-    """A jump just above the threshold is not enough: against an undetected deviation of
-    up to tol the other way it can leave |e| <= tol, unseen."""
-    return _jump("raven.jump_above_tol", _beyond(jmp, tol), "refuted",
-                 "a jump > tol alone can hide against an undetected deviation: no alarm")
+    """"Larger than the threshold" is not enough: an add-once jump J with tol < J <= 2 tol
+    against an accepted deviation of -tol leaves |e| <= tol, unseen. Refuted even with no
+    other fault (U = 0)."""
+    return _jump("raven.jump_above_tol", assign(jmp, Real("J")),
+                 And(tol < Real("J"), Real("J") <= 2 * tol, U == 0, dr == dm - tol), "refuted",
+                 "a jump J with tol < J <= 2 tol hides against an accepted deviation: no alarm")
 
 
 # =========================================================================== 3-D, a family of planes
