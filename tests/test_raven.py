@@ -15,7 +15,7 @@ VIOLATED = {
     "raven.deviation_small_margin": lambda s: s["dr"] < 0,
     "raven.deviation_haptic_only": lambda s: s["dr"] < 0,
     "raven.residual_drift": lambda s: s["dr"] < 0,
-    "raven.jump_above_tol": lambda s: s["seen"] == 1 and s["stopped"] != 1,
+    "raven.jump_above_tol": lambda s: s["seen"] == 1 and s["stopped"] == 0,
 }
 # the flows of the 1-D models, integrated here: (dm', dr') as functions of the state
 FLOWS = {
