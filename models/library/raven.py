@@ -10,7 +10,9 @@ monitor guarantees, as sampled-data loops at the control period eps (1 ms on Rav
   same command plus a fault push u with |u| <= U (constant over a period: the injected
   command and sensor streams are per-tick values);
 * the monitor reads positions at each tick; on an alarm the stop fallback brakes both
-  (v = u = 0 from then on, latched: pedal-up and motor brakes).
+  (v = u = 0 from then on, latched: pedal-up and motor brakes). The stop is immediate: a
+  real brake's stopping distance adds to the margin, and the theorems assume the monitor
+  reads the true robot position (encoder faults are the campaign's business).
 
 Distances are along the boundary's unit normal, the safe side positive; the robot crosses
 when d_r < 0. The margin the fixture must keep is m >= tol + U eps: the deviation is at most
