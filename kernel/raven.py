@@ -176,7 +176,8 @@ class RavenArm:
         tool_ok = np.all(np.isfinite(tool_target), axis=-1)
         tool_q = np.where(tool_ok[:, None], tool_target, state.q[:, 3:])
         tool_q = np.where(np.isfinite(tool_q), tool_q, 0.0)
-        tool_v = np.where(tool_ok[:, None], (tool_q - state.q[:, 3:]) / p.dt, 0.0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            tool_v = np.where(tool_ok[:, None], (tool_q - state.q[:, 3:]) / p.dt, 0.0)
         tool_v = np.where(np.isfinite(tool_v), tool_v, 0.0)
         q = np.concatenate([q_new, tool_q], axis=1)
         qdot = np.concatenate([v_new, tool_v], axis=1)
