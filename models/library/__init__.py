@@ -7,7 +7,7 @@ from typing import Callable
 
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
-from certiloop.models.library import cfmpa, rcm, sbs, textbook
+from certiloop.models.library import cfmpa, raven, rcm, sbs, textbook
 
 _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl1": sbs.ctrl1,
@@ -47,6 +47,14 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "rcm.barrier_off_s": rcm.barrier_off_s,
     "rcm.axial_guard": rcm.axial_guard,
     "rcm.axial_guard_half_margin": rcm.axial_guard_half_margin,
+    "raven.deviation_stop": raven.deviation_stop,
+    "raven.deviation_small_margin": raven.deviation_small_margin,
+    "raven.deviation_stop_3d": raven.deviation_stop_3d,
+    "raven.deviation_haptic_only": raven.deviation_haptic_only,
+    "raven.residual_drift": raven.residual_drift,
+    "raven.jump_detected": raven.jump_detected,
+    "raven.jump_above_tol": raven.jump_above_tol,
+    "raven.haptic_force": raven.haptic_force,
 }
 
 
