@@ -297,7 +297,23 @@ def _index(x: Any) -> Any:
 def margin(n: Node, compiler: Compiler) -> Fn:
     """How far a formula is from being false: >= 0 where it holds (for comparisons of
     numbers the signed distance, for connectives min/max), < 0 where it is violated. Used
-    to steer the search towards violations and to plot distances to boundaries."""
+    to steer the search towards violations and to plot distances to boundaries.
+
+    The distances alone can sit at 0 on the wrong side (`which = 3 -> x = 0` at which = 3,
+    x = 1 is max(0, -1) = 0), so the sign comes from the formula's truth: a violated
+    formula whose distance says 0 gets the smallest negative float, which no tolerance
+    mistakes for a deep violation."""
+    raw, truth = _margin(n, compiler), compiler(n)
+
+    def signed(s) -> float:
+        m = raw(s)
+        if truth(s):
+            return m if m >= 0 else 0.0
+        return m if m < 0 else -math.ulp(0.0)
+    return signed
+
+
+def _margin(n: Node, compiler: Compiler) -> Fn:
     op = n.op
     if op == "cmp":
         a, b = compiler(n.args[0]), compiler(n.args[1])

@@ -152,7 +152,10 @@ def test_prover_counterexamples_replay_in_the_interpreter(name):
 def test_a_tampered_counterexample_does_not_replay():
     theorem = library.get("textbook.water_tank_late_check")
     refutation, _ = refute(theorem, Budget())
-    refutation.raw_initial = {**refutation.raw_initial, "x": refutation.raw_initial["lo"]}  # far from hi
+    start = refutation.raw_initial
+    assert replay_refutation(theorem, refutation).violated
+    far = start["lo"] + 10**6 * (1 + abs(start["r"]) * start["eps"])  # no period can fill that much
+    refutation.raw_initial = {**start, "x": start["lo"], "hi": far}
     assert not replay_refutation(theorem, refutation).violated
 
 
