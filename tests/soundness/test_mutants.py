@@ -71,6 +71,8 @@ def _sampled(name: str):
 
 @pytest.mark.parametrize("name", [_sampled(n) for n in library.names()])
 def test_sampled_mutants_that_prove_have_no_violating_run(prover, name):
+    if next(iter(mutants(library.get(name), SAMPLE)), None) is None:
+        pytest.skip(f"{name} has no test, domain or constant to mutate")
     proved, refuted, other = _check(name, SAMPLE, prover, examples=200)
     assert proved + refuted + other > 0
 
