@@ -32,7 +32,8 @@ batching does not change results.
 
 Named setups (`SETUPS`, the `certiloop campaign` scenarios) draw one fault per run from a
 per-run seed and run the batch in chunks (`run_setup`); `falsify/metrics.py` summarises the
-rows. Not yet here: the Raven arm as the plant, the paper's 4-window experiment, plots, Dask.
+rows; `raven.paper` runs the paper's fixed 4-window schedule (a periodic fault, `PAPER`).
+Not yet here: the Raven arm as the plant, plots, Dask, the hypothesis worst-case search.
 """
 
 from __future__ import annotations
@@ -59,12 +60,15 @@ class Fault:
     start: int
     duration: int
     magnitude: float
+    period: int = 0  # > 0: the window repeats every `period` ticks (the paper's schedule)
 
     def __post_init__(self) -> None:
         if self.kind not in FAULT_KINDS or self.stream not in STREAMS:
             raise ValueError(f"unknown fault {self.kind!r} on {self.stream!r}")
         if self.start < 0 or self.duration < 0 or not math.isfinite(self.magnitude):
             raise ValueError("a fault needs start >= 0, duration >= 0 and a finite magnitude")
+        if self.period < 0 or 0 < self.period < self.duration:
+            raise ValueError("a periodic fault needs period >= duration")
 
 
 @dataclass
@@ -91,6 +95,8 @@ class Records:
     peak_deviation: np.ndarray
     outcome: list  # "TP" | "FP" | "FN" | "TN"
     residual_alarm: np.ndarray  # first tick a per-step residual ||e - e_prev|| > tol (-1: none)
+    alarms: np.ndarray | None = None  # (R, ticks) the monitor's alarm at each tick (trace=True)
+    distances: np.ndarray | None = None  # (R, ticks) the robot's true distance to the plane (trace=True)
 
     @property
     def crossings(self) -> int:
@@ -132,22 +138,25 @@ class _Stream:
         active = [f if (f is not None and f.stream == stream) else None for f in faults]
         self.kind = np.array([f.kind if f else "" for f in active])
         self.start = np.array([f.start if f else -1 for f in active])
-        self.end = np.array([f.start + f.duration if f else -1 for f in active])
+        self.duration = np.array([f.duration if f else 0 for f in active])
+        self.period = np.array([f.period if f else 0 for f in active])
         self.mag = np.array([f.magnitude if f else 0.0 for f in active])
         self.lag = int(max([round(f.magnitude) for f in active if f and f.kind == "delay"], default=0))
         self.history = np.zeros((self.lag + 1, runs, 3))
         self.held = np.zeros((runs, 3))
-        self.started = np.zeros(runs, dtype=bool)
+        self.was_on = np.zeros(runs, dtype=bool)
 
     def __call__(self, value: np.ndarray, tick: int) -> np.ndarray:
         value = np.asarray(value, dtype=float)
         if self.lag:
             self.history = np.roll(self.history, 1, axis=0)
             self.history[0] = value
-        on = (self.start <= tick) & (tick < self.end)
-        first = on & ~self.started
+        since = tick - self.start
+        since = np.where(self.period > 0, since % np.maximum(self.period, 1), since)  # into the window
+        on = (self.start <= tick) & (since < self.duration)
+        first = on & ~self.was_on
         self.held = np.where(first[:, None], value, self.held)
-        self.started |= on
+        self.was_on = on
         out = value.copy()
         k, mag = self.kind, self.mag
         stuck = on & (k == "stuck")
@@ -168,14 +177,15 @@ class _Stream:
             gauss = np.stack([_normal(keys, tick, self.lane + 1 + 2 * i) for i in range(3)], axis=1)
             out[noise] += gauss * mag[noise, None]
         drift = on & (k == "drift")
-        out[drift] += ((tick - self.start[drift] + 1) * mag[drift])[:, None] * self.toward
+        out[drift] += ((since[drift] + 1) * mag[drift])[:, None] * self.toward
         return out
 
 
 def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
-                 run_seeds: list | None = None) -> Records:
+                 run_seeds: list | None = None, trace: bool = False) -> Records:
     """Run len(faults) runs (None = a golden run without a fault) through the closed loop.
-    Run i draws its random numbers from run_seeds[i] (default: seed * RUN_STRIDE + i)."""
+    Run i draws its random numbers from run_seeds[i] (default: seed * RUN_STRIDE + i). With
+    `trace`, Records.alarms holds the monitor's alarm per run and tick (R, ticks)."""
     sc = scenario or Scenario()
     runs = len(faults)
     if run_seeds is None:
@@ -191,6 +201,8 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
     min_distance = p_robot @ n
     e_prev = np.zeros((runs, 3))
     residual_alarm = np.full(runs, -1, dtype=np.int64)
+    alarms = np.zeros((runs, sc.ticks), dtype=bool) if trace else None
+    distances = np.zeros((runs, sc.ticks)) if trace else None
     for tick in range(sc.ticks):
         t = tick * DT
         stopped = monitor.stopped.copy()
@@ -211,7 +223,9 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
         measured = encoder_stream(p_robot, tick)
         v_measured = (measured - measured_prev) / DT
         measured_prev = measured
-        monitor.step(p_model, v, measured, v_measured)
+        now = monitor.step(p_model, v, measured, v_measured)
+        if alarms is not None:
+            alarms[:, tick], distances[:, tick] = now.alarm, p_robot @ n
         e = measured - p_model
         jumped = residual(e, e_prev) > sc.tol  # the per-step residual, for comparison only
         residual_alarm = np.where(jumped & (residual_alarm < 0), tick, residual_alarm)
@@ -227,7 +241,8 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
             outcome.append("TP")
         else:
             outcome.append("FN")
-    return Records(list(faults), first, min_distance, monitor.peak, outcome, residual_alarm)
+    return Records(list(faults), first, min_distance, monitor.peak, outcome, residual_alarm, alarms,
+                   distances)
 
 
 def random_faults(runs: int, seed: int = 0, kinds=FAULT_KINDS, streams=STREAMS, ticks: int = 2000,
@@ -272,9 +287,22 @@ class Setup:
     golden: float = 0.2  # share of runs without a fault
     magnitudes: dict = field(default_factory=lambda: dict(BOUNDED))
     grace: int = 20
+    schedule: str = "random"  # or "paper": PAPER's fixed windows, one faulty and one golden run
+    ticks: int = 2000
 
     def scenario(self, ticks: int) -> Scenario:
         return Scenario(ticks=ticks, margin=self.margin, fallback=self.fallback, grace=self.grace)
+
+    def holds(self, rows: list[dict]) -> bool:
+        if self.schedule == "paper":
+            return all(r["outcome"] in ("TP", "TN") for r in rows)
+        return not any(r["crossed"] for r in rows)
+
+
+# The paper's experiment (section 3.2): 32 s, a fault every 8 s for 300 ticks (4 windows), the
+# haptic response. The paper overrides the shoulder's DAC; with a point tool as the plant (the
+# Raven arm is not wired in yet) a 5 mm command jump stands in for it: above tol, below the margin.
+PAPER = {"start": 4000, "window": 300, "period": 8000, "jump": 0.005, "ticks": 32000}
 
 
 SETUPS = {s.name: s for s in (
@@ -282,6 +310,10 @@ SETUPS = {s.name: s for s in (
           "tol + U eps, stop on the first alarm", "stop"),
     Setup("raven.haptic_only", "the paper's response, the haptic cue only (raven.deviation_haptic_only): "
           "same faults, the arm is never stopped", "haptic"),
+    Setup("raven.paper", "the paper's schedule: 4 windows of 300 ticks every 8 s over 32 s, haptic "
+          "response, a 5 mm command jump standing in for the shoulder DAC override (point-tool plant)",
+          "haptic", claim="every fault window alarmed, no alarm outside them or in the golden run",
+          schedule="paper", ticks=PAPER["ticks"]),
 )}
 
 
@@ -308,22 +340,54 @@ def run_setup(setup: Setup, kinds=FAULT_KINDS, runs: int = 1000, seed: int = 0, 
     after each batch."""
     if not 1 <= runs <= MAX_RUNS or not 0 <= seed <= MAX_SEED or ticks < 400:
         raise ValueError(f"need 1 <= runs <= {MAX_RUNS}, 0 <= seed <= {MAX_SEED}, ticks >= 400")
+    if setup.schedule == "paper":
+        return _paper_rows(setup, seed)
     rows: list[dict] = []
     for first in range(0, runs, batch):
         seeds = [seed * RUN_STRIDE + i for i in range(first, min(runs, first + batch))]
         faults = [draw_fault(s, setup, kinds, ticks) for s in seeds]
         rec = run_campaign(faults, setup.scenario(ticks), run_seeds=seeds)
         for i, (s, f) in enumerate(zip(seeds, faults)):
-            alarm, outcome = int(rec.first_alarm[i]), rec.outcome[i]
-            rows.append({"run": first + i, "seed": s, "kind": f.kind if f else "none",
-                         "stream": f.stream if f else "", "start": f.start if f else -1,
-                         "duration": f.duration if f else 0, "magnitude": f.magnitude if f else 0.0,
-                         "alarmed": alarm >= 0, "first_alarm": alarm,
-                         "latency": alarm - f.start if outcome == "TP" else None, "outcome": outcome,
-                         "min_distance": float(rec.min_distance[i]),
-                         "crossed": bool(rec.min_distance[i] < 0)})
+            rows.append(_row(first + i, s, f, int(rec.first_alarm[i]), rec.outcome[i], rec.min_distance[i]))
         if on_batch is not None:
             on_batch()
+    return rows
+
+
+def _row(run: int, seed: int, f: Fault | None, alarm: int, outcome: str, min_distance) -> dict:
+    return {"run": run, "seed": seed, "kind": f.kind if f else "none", "stream": f.stream if f else "",
+            "start": f.start if f else -1, "duration": f.duration if f else 0,
+            "magnitude": f.magnitude if f else 0.0, "alarmed": alarm >= 0, "first_alarm": alarm,
+            "latency": alarm - f.start if f and outcome == "TP" else None, "outcome": outcome,
+            "min_distance": float(min_distance), "crossed": bool(min_distance < 0)}
+
+
+def _paper_rows(setup: Setup, seed: int) -> list[dict]:
+    """The paper's experiment: a golden run and a run with PAPER's periodic fault. Rows: the
+    golden run, each window (TP if an alarm in [start, start + 300 + grace), else FN) and the
+    faulty run's stretches between the windows (kind "none": TN, or FP on any alarm)."""
+    ticks, grace = PAPER["ticks"], setup.grace
+    fault = Fault("jump", "command", PAPER["start"], PAPER["window"], PAPER["jump"], PAPER["period"])
+    seeds = [seed * RUN_STRIDE, seed * RUN_STRIDE + 1]
+    rec = run_campaign([None, fault], setup.scenario(ticks), run_seeds=seeds, trace=True)
+
+    def first(alarms: np.ndarray, offset: int = 0) -> int:
+        hits = np.flatnonzero(alarms)
+        return offset + int(hits[0]) if len(hits) else -1
+
+    golden = first(rec.alarms[0])
+    rows = [_row(0, seeds[0], None, golden, "FP" if golden >= 0 else "TN", rec.distances[0].min())]
+    covered = np.zeros(ticks, dtype=bool)
+    for k, start in enumerate(range(PAPER["start"], ticks, PAPER["period"])):
+        end = min(ticks, start + PAPER["window"] + grace)
+        covered[start:end] = True
+        alarm = first(rec.alarms[1, start:end], start)
+        window = Fault("jump", "command", start, PAPER["window"], PAPER["jump"])
+        rows.append(_row(k + 1, seeds[1], window, alarm, "TP" if alarm >= 0 else "FN",
+                         rec.distances[1, start:end].min()))
+    outside = first(rec.alarms[1] & ~covered)
+    rows.append(_row(len(rows), seeds[1], None, outside, "FP" if outside >= 0 else "TN",
+                     rec.distances[1, ~covered].min()))
     return rows
 
 

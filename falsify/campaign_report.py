@@ -49,7 +49,8 @@ def summary(setup: Setup, rows: list[dict], kinds, seed: int, ticks: int) -> dic
     """The --json document: the scenario, its claim and whether it holds, metrics per kind."""
     crossing = next((r for r in rows if r["crossed"]), None)
     return _clean({"scenario": setup.name, "description": setup.description, "claim": setup.claim,
-                   "holds": crossing is None, "seed": seed, "runs": len(rows), "ticks": ticks,
+                   "holds": setup.holds(rows), "seed": seed, "ticks": ticks,
+                   "runs": 2 if setup.schedule == "paper" else len(rows), "rows": len(rows),
                    "faults": list(kinds), "by_kind": by_kind(rows), "first_crossing": crossing})
 
 
@@ -75,7 +76,8 @@ def show_campaign(out: Console, doc: dict, quiet: bool = False, seconds: float =
                     "from the fault's start to the first alarm, over the true positives; 'none' = "
                     "runs without a fault")
     crossings = doc["by_kind"]["all"]["crossings"]
-    ui.say(out, f"{doc['scenario']}: {crossings} of {doc['runs']} runs crossed the boundary; claim "
+    unit = "runs" if doc["rows"] == doc["runs"] else "windows and fault-free stretches"
+    ui.say(out, f"{doc['scenario']}: {crossings} of {doc['rows']} {unit} crossed the boundary; claim "
                 f"'{doc['claim']}' {'holds' if doc['holds'] else 'FAILS'} ({seconds:.1f} s)")
     r = doc["first_crossing"]
     if r is not None:

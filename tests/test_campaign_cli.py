@@ -42,6 +42,15 @@ def test_haptic_only_crosses_exit_1_and_names_the_run(tmp_path, capsys):
     assert rec.crossings == 1 and rec.min_distance[0] == first["min_distance"]
 
 
+def test_paper_schedule_all_four_windows_alarm_and_nothing_else(tmp_path):
+    json_file, csv_file = tmp_path / "p.json", tmp_path / "p.csv"
+    assert campaign("raven.paper", "-q", "--json", str(json_file), "--csv", str(csv_file)) == 0
+    doc = json.loads(json_file.read_text())
+    assert doc["holds"] and doc["by_kind"]["jump"]["TP"] == 4 and doc["by_kind"]["none"]["TN"] == 2
+    rows = list(csv.DictReader(csv_file.open()))
+    assert [int(r["start"]) for r in rows if r["kind"] == "jump"] == [4000, 12000, 20000, 28000]
+
+
 def test_csv_is_byte_identical_for_the_same_seed_and_agrees_with_the_json(tmp_path):
     a, b, c = (tmp_path / n for n in ("a.csv", "b.csv", "c.csv"))
     args = ["raven.stop_margin", "--runs", "120", "--ticks", "800", "--seed", "3", "-q"]
@@ -69,6 +78,7 @@ def test_batching_does_not_change_a_run():
     (["raven.stop_margin", "--runs", "0"], "--runs must be between 1"),
     (["raven.stop_margin", "--ticks", "10"], "--ticks must be at least 400"),
     (["raven.stop_margin", "--seed", "-1"], "--seed must be between 0"),
+    (["raven.paper", "--runs", "5"], "raven.paper is a fixed experiment; --runs does not apply"),
     (["raven.stop_margin", "--csv", "no/such/dir/r.csv"], "--csv no/such/dir/r.csv: the folder"),
     (["raven.stop_margin", "--json", "no/such/dir/s.json"], "--json no/such/dir/s.json: the folder"),
 ])

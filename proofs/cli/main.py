@@ -116,17 +116,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     campaign = sub.add_parser(
         "campaign", help="inject faults into a simulated closed loop and measure the monitor",
-        description="Run SCENARIO (raven.stop_margin, raven.haptic_only) with one fault per run "
-        "(a share of runs without one), drawn from the run's seed, and report per fault kind "
-        "TP/FP/FN/TN, TPR and FPR with Wilson 95%% intervals, F1, detection latency (median, "
-        "p95) and boundary crossings. Exit 0 if the scenario's claim holds (no crossing), 1 "
-        "if not (the first crossing run is printed for replay).")
-    campaign.add_argument("scenario", metavar="SCENARIO", help="raven.stop_margin or raven.haptic_only")
-    campaign.add_argument("--faults", metavar="KIND,...", default="all",
+        description="Run SCENARIO (raven.stop_margin, raven.haptic_only: one fault per run, a "
+        "share of runs without one, drawn from the run's seed; raven.paper: the paper's fixed "
+        "4-window experiment) and report per fault kind TP/FP/FN/TN, TPR and FPR with Wilson "
+        "95% intervals, F1, detection latency (median, p95) and boundary crossings. Exit 0 if "
+        "the scenario's claim holds (stop_margin, haptic_only: no crossing; paper: every window "
+        "alarmed, no other alarm), 1 if not (the first crossing run is printed for replay).")
+    campaign.add_argument("scenario", metavar="SCENARIO",
+                          help="raven.stop_margin, raven.haptic_only or raven.paper")
+    campaign.add_argument("--faults", metavar="KIND,...",
                           help="fault kinds among stuck, delay, drop, jump, noise, drift (default all)")
-    campaign.add_argument("--runs", metavar="N", type=int, default=1000, help="runs (default 1000)")
+    campaign.add_argument("--runs", metavar="N", type=int, help="runs (default 1000)")
     campaign.add_argument("--seed", metavar="S", type=int, default=0, help="random seed (default 0)")
-    campaign.add_argument("--ticks", metavar="T", type=int, default=2000,
+    campaign.add_argument("--ticks", metavar="T", type=int,
                           help="1 kHz ticks per run (default 2000, at least 400)")
     campaign.add_argument("--csv", metavar="F", help="write one row per run to F (same seed, same bytes)")
     campaign.add_argument("--json", metavar="F", help="write the summary as JSON to F ('-' for stdout)")
@@ -542,7 +544,14 @@ def cmd_campaign(args: argparse.Namespace) -> int:
     setup = SETUPS.get(args.scenario)
     if setup is None:
         raise BadInput(f"unknown scenario {args.scenario!r}; choose among {', '.join(SETUPS)}")
-    kinds = _campaign_kinds(args.faults)
+    if setup.schedule == "paper":
+        flags = (("--faults", args.faults), ("--runs", args.runs), ("--ticks", args.ticks))
+        given = [flag for flag, value in flags if value is not None]
+        if given:
+            raise BadInput(f"{setup.name} is a fixed experiment; {', '.join(given)} does not apply")
+    kinds = _campaign_kinds(args.faults or "all")
+    args.runs = 1000 if args.runs is None else args.runs
+    args.ticks = setup.ticks if args.ticks is None else args.ticks
     if not 1 <= args.runs <= MAX_RUNS:
         raise BadInput(f"--runs must be between 1 and {MAX_RUNS:,}, got {args.runs}")
     if not 0 <= args.seed <= MAX_SEED:
