@@ -289,9 +289,13 @@ class Setup:
     grace: int = 20
     schedule: str = "random"  # or "paper": PAPER's fixed windows, one faulty and one golden run
     ticks: int = 2000
+    # m/s: the operator reaches 16 mm deep from 20 mm, so the fixture holds the model at the margin
+    # every cycle (at Scenario's 0.05 m/s the model never comes nearer than 12 mm)
+    reach_speed: float = 0.1
 
     def scenario(self, ticks: int) -> Scenario:
-        return Scenario(ticks=ticks, margin=self.margin, fallback=self.fallback, grace=self.grace)
+        return Scenario(ticks=ticks, margin=self.margin, fallback=self.fallback, grace=self.grace,
+                        reach_speed=self.reach_speed)
 
     def holds(self, rows: list[dict]) -> bool:
         if self.schedule == "paper":
