@@ -26,8 +26,14 @@ duration + grace), a false negative if it never alarms in that window; any alarm
 without a fault (or before its window) is a false positive (a fault too small to matter
 still counts as a miss: raven2_sim's labelling). Beside the monitor, the per-step residual
 ||e - e_prev|| > tol is recorded for comparison. Everything is seeded: the same seed gives
-the same records. Not yet here: the Raven arm as the plant, the CLI, CSV/JSON output,
-confidence intervals, plots, Dask.
+the same records, and a run's random draws (drop, noise) depend only on its own run seed
+(a counter-based hash, not a generator shared by the batch), so a run replays alone and
+batching does not change results.
+
+Named setups (`SETUPS`, the `certiloop campaign` scenarios) draw one fault per run from a
+per-run seed and run the batch in chunks (`run_setup`); `falsify/metrics.py` summarises the
+rows; `raven.paper` runs the paper's fixed 4-window schedule (a periodic fault, `PAPER`).
+Not yet here: the Raven arm as the plant, plots, Dask, the hypothesis worst-case search.
 """
 
 from __future__ import annotations
@@ -42,6 +48,9 @@ from certiloop.kernel.deviation import TOL, DeviationMonitor, residual
 FAULT_KINDS = ("stuck", "delay", "drop", "jump", "noise", "drift")
 STREAMS = ("command", "encoder")
 DT = 1e-3
+RUN_STRIDE = 1_000_000  # run i of a campaign with seed S has the run seed S * RUN_STRIDE + i
+MAX_RUNS = RUN_STRIDE
+MAX_SEED = 2**32 - 1
 
 
 @dataclass(frozen=True)
@@ -51,12 +60,15 @@ class Fault:
     start: int
     duration: int
     magnitude: float
+    period: int = 0  # > 0: the window repeats every `period` ticks (the paper's schedule)
 
     def __post_init__(self) -> None:
         if self.kind not in FAULT_KINDS or self.stream not in STREAMS:
             raise ValueError(f"unknown fault {self.kind!r} on {self.stream!r}")
         if self.start < 0 or self.duration < 0 or not math.isfinite(self.magnitude):
             raise ValueError("a fault needs start >= 0, duration >= 0 and a finite magnitude")
+        if self.period < 0 or 0 < self.period < self.duration:
+            raise ValueError("a periodic fault needs period >= duration")
 
 
 @dataclass
@@ -83,6 +95,8 @@ class Records:
     peak_deviation: np.ndarray
     outcome: list  # "TP" | "FP" | "FN" | "TN"
     residual_alarm: np.ndarray  # first tick a per-step residual ||e - e_prev|| > tol (-1: none)
+    alarms: np.ndarray | None = None  # (R, ticks) the monitor's alarm at each tick (trace=True)
+    distances: np.ndarray | None = None  # (R, ticks) the robot's true distance to the plane (trace=True)
 
     @property
     def crossings(self) -> int:
@@ -100,30 +114,49 @@ class Records:
                 "latency_p95": float(np.percentile(lat, 95)) if lat else float("nan")}
 
 
+def _uniform(keys: np.ndarray, tick: int, lane: int) -> np.ndarray:
+    """Uniform numbers in [0, 1), one per run, from (run key, tick, lane) alone (splitmix64):
+    a run draws the same numbers whatever else is in its batch."""
+    x = keys * np.uint64(0x9E3779B97F4A7C15) + np.uint64(tick * 16 + lane)
+    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    x = x ^ (x >> np.uint64(31))
+    return (x >> np.uint64(11)).astype(float) * 2.0 ** -53
+
+
+def _normal(keys: np.ndarray, tick: int, lane: int) -> np.ndarray:
+    """Standard normal numbers (Box-Muller over two hashed uniforms), one per run."""
+    u1, u2 = _uniform(keys, tick, lane), _uniform(keys, tick, lane + 1)
+    return np.sqrt(-2.0 * np.log1p(-u1)) * np.cos(2.0 * math.pi * u2)
+
+
 class _Stream:
     """A batched stream of 3-vectors through the runs' faults (one fault per run at most)."""
 
-    def __init__(self, faults: list, stream: str, runs: int, rng: np.random.Generator, toward) -> None:
-        self.rng, self.toward = rng, toward
+    def __init__(self, faults: list, stream: str, runs: int, keys: np.ndarray, toward) -> None:
+        self.keys, self.toward, self.lane = keys, toward, 0 if stream == "command" else 8
         active = [f if (f is not None and f.stream == stream) else None for f in faults]
         self.kind = np.array([f.kind if f else "" for f in active])
         self.start = np.array([f.start if f else -1 for f in active])
-        self.end = np.array([f.start + f.duration if f else -1 for f in active])
+        self.duration = np.array([f.duration if f else 0 for f in active])
+        self.period = np.array([f.period if f else 0 for f in active])
         self.mag = np.array([f.magnitude if f else 0.0 for f in active])
         self.lag = int(max([round(f.magnitude) for f in active if f and f.kind == "delay"], default=0))
         self.history = np.zeros((self.lag + 1, runs, 3))
         self.held = np.zeros((runs, 3))
-        self.started = np.zeros(runs, dtype=bool)
+        self.was_on = np.zeros(runs, dtype=bool)
 
     def __call__(self, value: np.ndarray, tick: int) -> np.ndarray:
         value = np.asarray(value, dtype=float)
         if self.lag:
             self.history = np.roll(self.history, 1, axis=0)
             self.history[0] = value
-        on = (self.start <= tick) & (tick < self.end)
-        first = on & ~self.started
+        since = tick - self.start
+        since = np.where(self.period > 0, since % np.maximum(self.period, 1), since)  # into the window
+        on = (self.start <= tick) & (since < self.duration)
+        first = on & ~self.was_on
         self.held = np.where(first[:, None], value, self.held)
-        self.started |= on
+        self.was_on = on
         out = value.copy()
         k, mag = self.kind, self.mag
         stuck = on & (k == "stuck")
@@ -133,26 +166,34 @@ class _Stream:
             steps = np.clip(np.round(mag[delay]).astype(int), 0, self.lag)
             out[delay] = self.history[steps, np.flatnonzero(delay)]
         drop = on & (k == "drop")
-        lost = drop & (self.rng.random(len(value)) < mag)
+        lost = drop & (_uniform(self.keys, tick, self.lane) < mag)
         out[lost] = self.held[lost]
         self.held = np.where((drop & ~lost)[:, None], value, self.held)
         jump = on & (k == "jump")
         out[jump] += mag[jump, None] * self.toward
         noise = on & (k == "noise")
-        out[noise] += self.rng.normal(0.0, 1.0, (int(noise.sum()), 3)) * mag[noise, None]
+        if noise.any():
+            keys = self.keys[noise]
+            gauss = np.stack([_normal(keys, tick, self.lane + 1 + 2 * i) for i in range(3)], axis=1)
+            out[noise] += gauss * mag[noise, None]
         drift = on & (k == "drift")
-        out[drift] += ((tick - self.start[drift] + 1) * mag[drift])[:, None] * self.toward
+        out[drift] += ((since[drift] + 1) * mag[drift])[:, None] * self.toward
         return out
 
 
-def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0) -> Records:
-    """Run len(faults) runs (None = a golden run without a fault) through the closed loop."""
+def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
+                 run_seeds: list | None = None, trace: bool = False) -> Records:
+    """Run len(faults) runs (None = a golden run without a fault) through the closed loop.
+    Run i draws its random numbers from run_seeds[i] (default: seed * RUN_STRIDE + i). With
+    `trace`, Records.alarms holds the monitor's alarm per run and tick (R, ticks)."""
     sc = scenario or Scenario()
     runs = len(faults)
-    rng = np.random.default_rng(seed)
+    if run_seeds is None:
+        run_seeds = [seed * RUN_STRIDE + i for i in range(runs)]
+    keys = np.array(run_seeds, dtype=np.uint64).reshape(runs)
     n = sc.normal / np.linalg.norm(sc.normal)
-    command_stream = _Stream(faults, "command", runs, rng, -n)
-    encoder_stream = _Stream(faults, "encoder", runs, rng, -n)
+    command_stream = _Stream(faults, "command", runs, keys, -n)
+    encoder_stream = _Stream(faults, "encoder", runs, keys, -n)
     p_model = np.broadcast_to(sc.start_height * n, (runs, 3)).copy()
     p_robot = p_model.copy()
     measured_prev = p_robot.copy()
@@ -160,6 +201,8 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0) 
     min_distance = p_robot @ n
     e_prev = np.zeros((runs, 3))
     residual_alarm = np.full(runs, -1, dtype=np.int64)
+    alarms = np.zeros((runs, sc.ticks), dtype=bool) if trace else None
+    distances = np.zeros((runs, sc.ticks)) if trace else None
     for tick in range(sc.ticks):
         t = tick * DT
         stopped = monitor.stopped.copy()
@@ -180,7 +223,9 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0) 
         measured = encoder_stream(p_robot, tick)
         v_measured = (measured - measured_prev) / DT
         measured_prev = measured
-        monitor.step(p_model, v, measured, v_measured)
+        now = monitor.step(p_model, v, measured, v_measured)
+        if alarms is not None:
+            alarms[:, tick], distances[:, tick] = now.alarm, p_robot @ n
         e = measured - p_model
         jumped = residual(e, e_prev) > sc.tol  # the per-step residual, for comparison only
         residual_alarm = np.where(jumped & (residual_alarm < 0), tick, residual_alarm)
@@ -196,7 +241,8 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0) 
             outcome.append("TP")
         else:
             outcome.append("FN")
-    return Records(list(faults), first, min_distance, monitor.peak, outcome, residual_alarm)
+    return Records(list(faults), first, min_distance, monitor.peak, outcome, residual_alarm, alarms,
+                   distances)
 
 
 def random_faults(runs: int, seed: int = 0, kinds=FAULT_KINDS, streams=STREAMS, ticks: int = 2000,
@@ -218,3 +264,138 @@ def random_faults(runs: int, seed: int = 0, kinds=FAULT_KINDS, streams=STREAMS, 
         duration = int(rng.integers(1, ticks // 4))
         out.append(Fault(kind, streams[rng.integers(len(streams))], start, duration, mag))
     return out
+
+
+# --- named setups: the scenarios of `certiloop campaign` --------------------------------------
+
+# Fault magnitudes within the proved design's premise: no fault moves the robot by more than
+# m - tol = 3 mm in one tick (jumps <= 2.9 mm, drifts <= 1 mm per tick, noise sigma <= 0.5 mm,
+# i.e. 6 mm is 12 sigma; delays <= 40 ticks at <= 0.05 m/s). Log-uniform in each range.
+BOUNDED = {"stuck": (1.0, 1.0), "delay": (1.0, 40.0), "drop": (0.1, 1.0), "jump": (1e-4, 2.9e-3),
+           "noise": (1e-4, 5e-4), "drift": (1e-5, 1e-3)}
+
+
+@dataclass(frozen=True)
+class Setup:
+    """A campaign scenario: the closed loop's response, the faults it is exposed to, the claim."""
+
+    name: str
+    description: str
+    fallback: str  # "stop" (the proved design) or "haptic" (the paper's)
+    claim: str = "no run crosses the boundary"
+    margin: float = 0.006  # m >= tol + U eps with U eps <= 3 mm
+    golden: float = 0.2  # share of runs without a fault
+    magnitudes: dict = field(default_factory=lambda: dict(BOUNDED))
+    grace: int = 20
+    schedule: str = "random"  # or "paper": PAPER's fixed windows, one faulty and one golden run
+    ticks: int = 2000
+    # m/s: the operator reaches 16 mm deep from 20 mm, so the fixture holds the model at the margin
+    # every cycle (at Scenario's 0.05 m/s the model never comes nearer than 12 mm)
+    reach_speed: float = 0.1
+
+    def scenario(self, ticks: int) -> Scenario:
+        return Scenario(ticks=ticks, margin=self.margin, fallback=self.fallback, grace=self.grace,
+                        reach_speed=self.reach_speed)
+
+    def holds(self, rows: list[dict]) -> bool:
+        if self.schedule == "paper":
+            return all(r["outcome"] in ("TP", "TN") for r in rows)
+        return not any(r["crossed"] for r in rows)
+
+
+# The paper's experiment (section 3.2): 32 s, a fault every 8 s for 300 ticks (4 windows), the
+# haptic response. The paper overrides the shoulder's DAC; with a point tool as the plant (the
+# Raven arm is not wired in yet) a 5 mm command jump stands in for it: above tol, below the margin.
+PAPER = {"start": 4000, "window": 300, "period": 8000, "jump": 0.005, "ticks": 32000}
+
+
+SETUPS = {s.name: s for s in (
+    Setup("raven.stop_margin", "the proved stop design (raven.deviation_stop_3d): margin 6 mm >= "
+          "tol + U eps, stop on the first alarm", "stop"),
+    Setup("raven.haptic_only", "the paper's response, the haptic cue only (raven.deviation_haptic_only): "
+          "same faults, the arm is never stopped", "haptic"),
+    Setup("raven.paper", "the paper's schedule: 4 windows of 300 ticks every 8 s over 32 s, haptic "
+          "response, a 5 mm command jump standing in for the shoulder DAC override (point-tool plant)",
+          "haptic", claim="every fault window alarmed, no alarm outside them or in the golden run",
+          schedule="paper", ticks=PAPER["ticks"]),
+)}
+
+
+def draw_fault(run_seed: int, setup: Setup, kinds=FAULT_KINDS, ticks: int = 2000) -> Fault | None:
+    """Run `run_seed`'s fault (None: a golden run), from that seed alone: kind, stream, window
+    [start, start + duration) with 100 <= start < ticks/2, 1 <= duration < ticks/4, magnitude."""
+    rng = np.random.default_rng(run_seed)
+    if rng.random() < setup.golden:
+        return None
+    kind = kinds[rng.integers(len(kinds))]
+    lo, hi = setup.magnitudes[kind]
+    mag = float(math.exp(rng.uniform(math.log(lo), math.log(hi))))
+    if kind == "delay":
+        mag = float(round(mag))
+    stream = STREAMS[rng.integers(len(STREAMS))]
+    start = int(rng.integers(100, ticks // 2))
+    return Fault(kind, stream, start, int(rng.integers(1, ticks // 4)), mag)
+
+
+def run_setup(setup: Setup, kinds=FAULT_KINDS, runs: int = 1000, seed: int = 0, ticks: int = 2000,
+              batch: int = 500, on_batch=None) -> list[dict]:
+    """`runs` runs of `setup`, run i with the run seed seed * RUN_STRIDE + i, stepped `batch`
+    at a time (the results do not depend on `batch`); one row per run. on_batch() is called
+    after each batch."""
+    if not 1 <= runs <= MAX_RUNS or not 0 <= seed <= MAX_SEED or ticks < 400:
+        raise ValueError(f"need 1 <= runs <= {MAX_RUNS}, 0 <= seed <= {MAX_SEED}, ticks >= 400")
+    if setup.schedule == "paper":
+        return _paper_rows(setup, seed)
+    rows: list[dict] = []
+    for first in range(0, runs, batch):
+        seeds = [seed * RUN_STRIDE + i for i in range(first, min(runs, first + batch))]
+        faults = [draw_fault(s, setup, kinds, ticks) for s in seeds]
+        rec = run_campaign(faults, setup.scenario(ticks), run_seeds=seeds)
+        for i, (s, f) in enumerate(zip(seeds, faults)):
+            rows.append(_row(first + i, s, f, int(rec.first_alarm[i]), rec.outcome[i], rec.min_distance[i]))
+        if on_batch is not None:
+            on_batch()
+    return rows
+
+
+def _row(run: int, seed: int, f: Fault | None, alarm: int, outcome: str, min_distance) -> dict:
+    return {"run": run, "seed": seed, "kind": f.kind if f else "none", "stream": f.stream if f else "",
+            "start": f.start if f else -1, "duration": f.duration if f else 0,
+            "magnitude": f.magnitude if f else 0.0, "alarmed": alarm >= 0, "first_alarm": alarm,
+            "latency": alarm - f.start if f and outcome == "TP" else None, "outcome": outcome,
+            "min_distance": float(min_distance), "crossed": bool(min_distance < 0)}
+
+
+def _paper_rows(setup: Setup, seed: int) -> list[dict]:
+    """The paper's experiment: a golden run and a run with PAPER's periodic fault. Rows: the
+    golden run, each window (TP if an alarm in [start, start + 300 + grace), else FN) and the
+    faulty run's stretches between the windows (kind "none": TN, or FP on any alarm)."""
+    ticks, grace = PAPER["ticks"], setup.grace
+    fault = Fault("jump", "command", PAPER["start"], PAPER["window"], PAPER["jump"], PAPER["period"])
+    seeds = [seed * RUN_STRIDE, seed * RUN_STRIDE + 1]
+    rec = run_campaign([None, fault], setup.scenario(ticks), run_seeds=seeds, trace=True)
+
+    def first(alarms: np.ndarray, offset: int = 0) -> int:
+        hits = np.flatnonzero(alarms)
+        return offset + int(hits[0]) if len(hits) else -1
+
+    golden = first(rec.alarms[0])
+    rows = [_row(0, seeds[0], None, golden, "FP" if golden >= 0 else "TN", rec.distances[0].min())]
+    covered = np.zeros(ticks, dtype=bool)
+    for k, start in enumerate(range(PAPER["start"], ticks, PAPER["period"])):
+        end = min(ticks, start + PAPER["window"] + grace)
+        covered[start:end] = True
+        alarm = first(rec.alarms[1, start:end], start)
+        window = Fault("jump", "command", start, PAPER["window"], PAPER["jump"])
+        rows.append(_row(k + 1, seeds[1], window, alarm, "TP" if alarm >= 0 else "FN",
+                         rec.distances[1, start:end].min()))
+    outside = first(rec.alarms[1] & ~covered)
+    rows.append(_row(len(rows), seeds[1], None, outside, "FP" if outside >= 0 else "TN",
+                     rec.distances[1, ~covered].min()))
+    return rows
+
+
+def replay(setup: Setup, run_seed: int, kinds=FAULT_KINDS, ticks: int = 2000) -> Records:
+    """One run of a campaign again, alone, from its run seed (the CSV's `seed` column)."""
+    fault = draw_fault(run_seed, setup, kinds, ticks)
+    return run_campaign([fault], setup.scenario(ticks), run_seeds=[run_seed])

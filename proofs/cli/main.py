@@ -113,6 +113,26 @@ def build_parser() -> argparse.ArgumentParser:
                       "or $CERTILOOP_CACHE)")
     gate.add_argument("--no-cache", action="store_true", help="prove everything afresh")
     _verbosity_flags(gate, "every model's checks and its obligations not proved")
+
+    campaign = sub.add_parser(
+        "campaign", help="inject faults into a simulated closed loop and measure the monitor",
+        description="Run SCENARIO (raven.stop_margin, raven.haptic_only: one fault per run, a "
+        "share of runs without one, drawn from the run's seed; raven.paper: the paper's fixed "
+        "4-window experiment) and report per fault kind TP/FP/FN/TN, TPR and FPR with Wilson "
+        "95% intervals, F1, detection latency (median, p95) and boundary crossings. Exit 0 if "
+        "the scenario's claim holds (stop_margin, haptic_only: no crossing; paper: every window "
+        "alarmed, no other alarm), 1 if not (the first crossing run is printed for replay).")
+    campaign.add_argument("scenario", metavar="SCENARIO",
+                          help="raven.stop_margin, raven.haptic_only or raven.paper")
+    campaign.add_argument("--faults", metavar="KIND,...",
+                          help="fault kinds among stuck, delay, drop, jump, noise, drift (default all)")
+    campaign.add_argument("--runs", metavar="N", type=int, help="runs (default 1000)")
+    campaign.add_argument("--seed", metavar="S", type=int, default=0, help="random seed (default 0)")
+    campaign.add_argument("--ticks", metavar="T", type=int,
+                          help="1 kHz ticks per run (default 2000, at least 400)")
+    campaign.add_argument("--csv", metavar="F", help="write one row per run to F (same seed, same bytes)")
+    campaign.add_argument("--json", metavar="F", help="write the summary as JSON to F ('-' for stdout)")
+    campaign.add_argument("-q", "--quiet", action="store_true", help="print only the summary line")
     return parser
 
 
@@ -198,6 +218,8 @@ def _main(argv: list[str] | None) -> int:
         return cmd_falsify(args)
     if args.command == "extract":
         return cmd_extract(args)
+    if args.command == "campaign":
+        return cmd_campaign(args)
     raise BadInput(f"unknown command {args.command}")  # pragma: no cover
 
 
@@ -501,6 +523,58 @@ def _plot(name: str, result, model: str, several: bool, out, level: int) -> None
     plot_run(result.run, model, target)
     if level > ui.QUIET:
         ui.say(out, f"  plot: {target}")
+
+
+def _campaign_kinds(text: str) -> tuple:
+    from certiloop.falsify.campaign import FAULT_KINDS
+
+    if text.strip() == "all":
+        return FAULT_KINDS
+    kinds = tuple(k.strip() for k in text.split(",") if k.strip())
+    bad = [k for k in kinds if k not in FAULT_KINDS]
+    if bad or not kinds:
+        raise BadInput(f"--faults: unknown fault kind {bad[0] if bad else text!r}; choose among "
+                       f"{', '.join(FAULT_KINDS)} or all")
+    return tuple(dict.fromkeys(kinds))
+
+
+def cmd_campaign(args: argparse.Namespace) -> int:
+    from certiloop.falsify.campaign import MAX_RUNS, MAX_SEED, SETUPS
+
+    setup = SETUPS.get(args.scenario)
+    if setup is None:
+        raise BadInput(f"unknown scenario {args.scenario!r}; choose among {', '.join(SETUPS)}")
+    if setup.schedule == "paper":
+        flags = (("--faults", args.faults), ("--runs", args.runs), ("--ticks", args.ticks))
+        given = [flag for flag, value in flags if value is not None]
+        if given:
+            raise BadInput(f"{setup.name} is a fixed experiment; {', '.join(given)} does not apply")
+    kinds = _campaign_kinds(args.faults or "all")
+    args.runs = 1000 if args.runs is None else args.runs
+    args.ticks = setup.ticks if args.ticks is None else args.ticks
+    if not 1 <= args.runs <= MAX_RUNS:
+        raise BadInput(f"--runs must be between 1 and {MAX_RUNS:,}, got {args.runs}")
+    if not 0 <= args.seed <= MAX_SEED:
+        raise BadInput(f"--seed must be between 0 and {MAX_SEED}, got {args.seed}")
+    if args.ticks < 400:
+        raise BadInput(f"--ticks must be at least 400, got {args.ticks}")
+    _check_outputs(("--csv", args.csv, "file"), ("--json", args.json, "file or -"))
+    from certiloop.falsify.campaign import run_setup
+    from certiloop.falsify.campaign_report import show_campaign, summary, write_campaign_csv
+    from certiloop.proofs.cli import ui
+
+    out = console(stderr=args.json == "-")
+    start, batch = time.perf_counter(), 500
+    with ui.ModelProgress("campaign", 1, not args.quiet) as progress:
+        progress.model(setup.name)
+        progress.steps(-(-args.runs // batch))
+        rows = run_setup(setup, kinds, args.runs, args.seed, args.ticks, batch, on_batch=progress.step)
+    doc = summary(setup, rows, kinds, args.seed, args.ticks)
+    if args.csv:
+        write_campaign_csv(rows, Path(args.csv))
+    _write_json(args.json, doc)
+    show_campaign(out, doc, quiet=args.quiet, seconds=time.perf_counter() - start)
+    return EXIT_OK if doc["holds"] else EXIT_FAILED
 
 
 if __name__ == "__main__":  # pragma: no cover
