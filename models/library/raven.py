@@ -21,6 +21,8 @@ tol when the last check passed and grows by at most U eps before the next one.
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 from certiloop.models.lang.programs import (
     Program,
     assign,
@@ -221,9 +223,15 @@ def jump_detected() -> Theorem:
     """A jump of more than 2 tol + U eps, either way, is seen at the first check after it:
     the deviation was at most tol at the last check, and the rest of the period moves it by
     at most U eps. Starts from any deviation the monitor accepts."""
+    # Premises in the paper's scale (tol = 3 mm, a workspace of metres): tol >= 1 mm and the
+    # tips within 10 m at the start. Not needed by the proof; they keep the falsifier's float
+    # runs in a range where a jump cannot vanish in rounding (a 1e-156 jump beside a 1e-18
+    # position once produced a float-only "violation"; see the falsifier's known limits).
     return _jump("raven.jump_detected", seq(havoc(jmp), test(_beyond(jmp, 2 * tol + U * eps))),
-                 _within(dr - dm, tol), "proved",
-                 "a jump > 2 tol + U eps raises the alarm at the first check after it")
+                 And(_within(dr - dm, tol), tol >= Fraction(1, 1000), dr <= 10, dr >= -10,
+                     dm <= 10, dm >= -10), "proved",
+                 "a jump > 2 tol + U eps raises the alarm at the first check after it "
+                 "(tol >= 1 mm, tips within 10 m)")
 
 
 def jump_above_tol() -> Theorem:
