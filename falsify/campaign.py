@@ -33,7 +33,7 @@ batching does not change results.
 Named setups (`SETUPS`, the `certiloop campaign` scenarios) draw one fault per run from a
 per-run seed and run the batch in chunks (`run_setup`); `falsify/metrics.py` summarises the
 rows; `raven.paper` runs the paper's fixed 4-window schedule (a periodic fault, `PAPER`).
-Not yet here: the Raven arm as the plant, plots, Dask, the hypothesis worst-case search.
+Not yet here: the Raven arm as the plant (the robot is a point tool that follows its command).
 """
 
 from __future__ import annotations
@@ -314,6 +314,9 @@ SETUPS = {s.name: s for s in (
           "tol + U eps, stop on the first alarm", "stop"),
     Setup("raven.haptic_only", "the paper's response, the haptic cue only (raven.deviation_haptic_only): "
           "same faults, the arm is never stopped", "haptic"),
+    Setup("raven.no_margin", "the stop design with a margin below tol + U eps (2 mm < 3 mm + U eps, "
+          "raven.deviation_small_margin's premise): a fault below the threshold crosses", "stop",
+          margin=0.002, reach_speed=0.15),  # reaching 24 mm deep from 20 mm: the fixture holds it at 2 mm
     Setup("raven.paper", "the paper's schedule: 4 windows of 300 ticks every 8 s over 32 s, haptic "
           "response, a 5 mm command jump standing in for the shoulder DAC override (point-tool plant)",
           "haptic", claim="every fault window alarmed, no alarm outside them or in the golden run",
@@ -338,32 +341,49 @@ def draw_fault(run_seed: int, setup: Setup, kinds=FAULT_KINDS, ticks: int = 2000
 
 
 def run_setup(setup: Setup, kinds=FAULT_KINDS, runs: int = 1000, seed: int = 0, ticks: int = 2000,
-              batch: int = 500, on_batch=None) -> list[dict]:
+              batch: int = 500, on_batch=None, executor=None) -> list[dict]:
     """`runs` runs of `setup`, run i with the run seed seed * RUN_STRIDE + i, stepped `batch`
-    at a time (the results do not depend on `batch`); one row per run. on_batch() is called
-    after each batch."""
+    at a time; one row per run, in run order. on_batch() is called after each batch. With a
+    concurrent.futures `executor` (a process pool, a Dask cluster) the batches run there; a
+    run depends only on its run seed, so neither `batch` nor the executor changes a row."""
     if not 1 <= runs <= MAX_RUNS or not 0 <= seed <= MAX_SEED or ticks < 400:
         raise ValueError(f"need 1 <= runs <= {MAX_RUNS}, 0 <= seed <= {MAX_SEED}, ticks >= 400")
     if setup.schedule == "paper":
         return _paper_rows(setup, seed)
+    batches = [(setup, tuple(kinds), ticks, first, seed * RUN_STRIDE + first,
+                min(runs, first + batch) - first) for first in range(0, runs, batch)]
+    if executor is None:
+        results = map(_batch_rows, batches)
+    else:
+        futures = [executor.submit(_batch_rows, b) for b in batches]
+        results = (f.result() for f in futures)
     rows: list[dict] = []
-    for first in range(0, runs, batch):
-        seeds = [seed * RUN_STRIDE + i for i in range(first, min(runs, first + batch))]
-        faults = [draw_fault(s, setup, kinds, ticks) for s in seeds]
-        rec = run_campaign(faults, setup.scenario(ticks), run_seeds=seeds)
-        for i, (s, f) in enumerate(zip(seeds, faults)):
-            rows.append(_row(first + i, s, f, int(rec.first_alarm[i]), rec.outcome[i], rec.min_distance[i]))
+    for part in results:
+        rows.extend(part)
         if on_batch is not None:
             on_batch()
     return rows
 
 
-def _row(run: int, seed: int, f: Fault | None, alarm: int, outcome: str, min_distance) -> dict:
+def _batch_rows(spec: tuple) -> list[dict]:
+    """One batch of a campaign (a picklable unit of work): runs first .. first + count - 1."""
+    setup, kinds, ticks, first, first_seed, count = spec
+    seeds = [first_seed + i for i in range(count)]
+    faults = [draw_fault(s, setup, kinds, ticks) for s in seeds]
+    rec = run_campaign(faults, setup.scenario(ticks), run_seeds=seeds)
+    return [_row(first + i, s, f, int(rec.first_alarm[i]), rec.outcome[i], rec.min_distance[i],
+                 rec.peak_deviation[i]) for i, (s, f) in enumerate(zip(seeds, faults))]
+
+
+def _row(run: int, seed: int, f: Fault | None, alarm: int, outcome: str, min_distance, peak=None) -> dict:
+    """One CSV row; `peak` is the run's largest measured deviation ||e|| (the ROC's score; None
+    for the paper's per-window rows)."""
     return {"run": run, "seed": seed, "kind": f.kind if f else "none", "stream": f.stream if f else "",
             "start": f.start if f else -1, "duration": f.duration if f else 0,
             "magnitude": f.magnitude if f else 0.0, "alarmed": alarm >= 0, "first_alarm": alarm,
             "latency": alarm - f.start if f and outcome == "TP" else None, "outcome": outcome,
-            "min_distance": float(min_distance), "crossed": bool(min_distance < 0)}
+            "min_distance": float(min_distance), "crossed": bool(min_distance < 0),
+            "peak_deviation": None if peak is None else float(peak)}
 
 
 def _paper_rows(setup: Setup, seed: int) -> list[dict]:
