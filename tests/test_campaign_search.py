@@ -123,3 +123,45 @@ def test_dask_executor_gives_the_same_rows():
         rows = run_setup(SETUPS["raven.haptic_only"], runs=30, seed=2, ticks=400, batch=8,
                          executor=client.get_executor())
     assert rows == run_setup(SETUPS["raven.haptic_only"], runs=30, seed=2, ticks=400, batch=30)
+
+
+def test_positioning_closed_form_matches_the_full_chain_and_its_differences():
+    from certiloop.kernel.raven import Positioning, jacobian, tip
+    rng = np.random.default_rng(7)
+    q = np.zeros((300, 6))
+    q[:, 0], q[:, 1], q[:, 2] = rng.uniform(0, 1.6, 300), rng.uniform(0.8, 2.4, 300), rng.uniform(0.23, 0.56, 300)
+    for side in ("left", "right"):
+        kin = Positioning(side)
+        p, J = kin.tip_and_jacobian(q[:, :3])
+        assert np.abs(p - tip(q, side)).max() < 1e-14  # the six 4x4 frames
+        assert np.abs(J - jacobian(q, side)[:, :, :3]).max() < 1e-8  # central differences
+
+
+def test_ik_converges_quadratically_near_the_rest_pose():
+    from certiloop.kernel.raven import Positioning, RavenArm
+    kin, rng = Positioning(), np.random.default_rng(1)
+    q = RavenArm().rest(100).q[:, :3]
+    target = kin.tip(q) + rng.normal(size=(100, 3)) * 1e-3
+    errors = []
+    for _ in range(3):
+        q = kin.ik_step(target, q)
+        errors.append(np.abs(kin.tip(q) - target).max())
+    assert errors[0] < 1e-3 and errors[1] < 1e-6 and errors[2] < 1e-12
+
+
+def test_arm_plant_calibration_deviation_grows_with_speed_and_stays_under_tol():
+    from certiloop.falsify.campaign import Scenario
+    peaks = []
+    for speed in (0.025, 0.05):
+        rec = run_campaign([None] * 8, Scenario(ticks=600, plant="arm", reach_speed=speed), seed=0)
+        assert np.all(rec.first_alarm == -1) and np.all(rec.min_distance > 0)
+        peaks.append(rec.peak_deviation.max())
+    assert 0 < peaks[0] < peaks[1] < 0.003  # the PD lag: about 29 ms times the speed
+
+
+def test_arm_plant_stop_design_holds_where_haptic_only_crosses():
+    faults = [Fault("drift", "command", 150, 300, 1.6e-4)] * 2
+    stop = run_campaign(faults, SETUPS["raven.stop_margin_arm"].scenario(800), seed=0)
+    haptic = run_campaign(faults, SETUPS["raven.haptic_only_arm"].scenario(800), seed=0)
+    assert np.all(stop.min_distance >= 0) and np.all(stop.first_alarm >= 150)
+    assert np.all(haptic.min_distance < 0)
