@@ -28,7 +28,6 @@ from certiloop.falsify.campaign import SETUPS, Scenario, run_campaign, run_setup
 from certiloop.kernel import VirtualFixture
 from certiloop.kernel.deviation import DeviationMonitor
 
-
 HAND_SPEED = 0.5  # m/s, the surgeon's hand (assumed)
 
 

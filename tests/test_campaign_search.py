@@ -129,7 +129,8 @@ def test_positioning_closed_form_matches_the_full_chain_and_its_differences():
     from certiloop.kernel.raven import Positioning, jacobian, tip
     rng = np.random.default_rng(7)
     q = np.zeros((300, 6))
-    q[:, 0], q[:, 1], q[:, 2] = rng.uniform(0, 1.6, 300), rng.uniform(0.8, 2.4, 300), rng.uniform(0.23, 0.56, 300)
+    q[:, 0], q[:, 1] = rng.uniform(0, 1.6, 300), rng.uniform(0.8, 2.4, 300)
+    q[:, 2] = rng.uniform(0.23, 0.56, 300)
     for side in ("left", "right"):
         kin = Positioning(side)
         p, J = kin.tip_and_jacobian(q[:, :3])
