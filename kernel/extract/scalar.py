@@ -63,6 +63,7 @@ class _Python:
         self.opened: dict[str, None] = {}  # top-level `x := *` not yet read or pinned
         self.inputs: dict[str, None] = {}  # `x := *` read as they are: parameters
         self.pinned: set[str] = set()  # `x := *` solved for somewhere
+        self.admitted: dict[str, None] = {}  # `x := *` in an alternative, only tested: parameters
         self.tested: set[str] = set()  # names some test reads
         self.array_reads: set[str] = set()
         self.array_writes: dict[str, list[tuple[Node, ...] | None]] = {}  # array -> loop bounds per write
@@ -204,6 +205,8 @@ class _Python:
             self.test(q)
         elif isinstance(q, Choice):
             self.choice(q)
+        elif _is_annotation(q):
+            pass  # `{?true}*` carries an invariant for the proof; it does nothing at run time
         elif isinstance(q, Loop):
             raise _refuse(q, "only `for` loops (`i := lo; {?i < hi; ...; i := i + 1}*; ?i >= hi`) are "
                           "extracted: a loop with no exit test repeats any number of times")
@@ -227,7 +230,7 @@ class _Python:
         self.assigned[root] = None
 
     def test(self, q: Test) -> None:
-        for atom in _conjuncts(q.cond):
+        for atom in _pins_first(_conjuncts(q.cond), list(self.opened)):
             if atom.op == "true":
                 continue
             target = next((v for v in self.opened if _mentions(atom, v)), None)
@@ -377,9 +380,11 @@ class _Python:
                 sub = path.fork(f"{path.tag}_{_tag(label, k)}", f"{path.label} / {label}")
                 out += self.walk(_parts(alt), [sub])
             return out
+        if _is_annotation(q):
+            return [path]
         if isinstance(q, Test):
             paths = [path]
-            for atom in _conjuncts(q.cond):
+            for atom in _pins_first(_conjuncts(q.cond), [v for v, s in path.subst.items() if s is None]):
                 if atom.op != "true":
                     paths = [r for p in paths for r in self.atom_in_path(atom, p)]
             return paths
@@ -411,6 +416,13 @@ class _Python:
         if target is None:
             path.items.append(("if", self.test_code(atom, path.subst)))
             return [path]
+        if not (atom.op == "cmp" and atom.payload == "==") and target in path.subst \
+                and (target not in self.defined or target in self.admitted) and target not in self.pinned:
+            # `u := *; ?|u| <= U` with nothing pinning u: the value is an input, admitted as given
+            self.inputs[target] = self.admitted[target] = None
+            path.subst[target] = self.read(target)
+            path.items.append(("if", self.test_code(atom, path.subst)))
+            return [path]
         roots = _solutions(atom, target)
         out = []
         for root in roots:
@@ -426,6 +438,42 @@ class _Python:
         return out
 
 
+def _latches(parts: list[Program], py: _Python) -> set[str]:
+    """Scalars the step reads before it assigns them (`?stopped = 1 | ...; stopped := 1`):
+    state carried from one step to the next, so an output."""
+    assigned: set[str] = set()
+
+    def visit(q: Program) -> None:
+        if isinstance(q, Assign) and q.target.op == "var" and not q.target.sort.is_array:
+            assigned.add(q.target.payload)
+        for c in (q.parts if isinstance(q, Seq) else q.alternatives if isinstance(q, Choice) else
+                  (q.body,) if isinstance(q, Loop) else ()):
+            visit(c)
+
+    for q in parts:
+        visit(q)
+    return assigned & set(py.params)
+
+
+def _is_annotation(q: Program) -> bool:
+    """`{?true}*`: a loop that only carries an invariant for the proof."""
+    return isinstance(q, Loop) and q.each is None and isinstance(q.body, Test) and q.body.cond.op == "true"
+
+
+def _pins_first(atoms: list[Node], open_names: list[str]) -> list[Node]:
+    """Move an equation that pins an open `x := *` before the atoms that read x ahead of it
+    (`?nrm >= 0 & nrm*nrm = n2` solves for nrm, then checks it); other atoms keep their
+    order. The order of a conjunction does not change its value in the generated code: a
+    division by zero gives inf/NaN, never an exception."""
+    out = list(atoms)
+    for name in open_names:
+        readers = [k for k, a in enumerate(out) if _mentions(a, name)]
+        pin = next((k for k in readers if out[k].op == "cmp" and out[k].payload == "=="), None)
+        if pin is not None and readers[0] < pin:
+            out.insert(readers[0], out.pop(pin))
+    return out
+
+
 def _python(theorem: Theorem, step: "_Step") -> str:
     parts = list(step.parts)
     symbols = {**free_vars(theorem.assumptions), **theorem.program.symbols(), **free_vars(theorem.guarantee)}
@@ -438,11 +486,17 @@ def _python(theorem: Theorem, step: "_Step") -> str:
         symbols.update((r, Var(r, REAL)) for r in rates)
     py = _Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
     py.block(parts)
+    latches = _latches(parts, py) if step.where in ("before", "after") else set()
+    if latches - live:  # a value the step reads and sets (`stopped := 1`): the next step needs it
+        live |= latches
+        py = _Python(symbols, live, Seq(tuple(parts)))
+        py.block(parts)
     if py.pinned & set(py.inputs):
         both = sorted(py.pinned & set(py.inputs))
         raise ExtractError(f"`{both[0]} := *` is pinned by an equation on some paths and read as an input "
                            "on others; cannot extract")
     outputs = rates or _outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
+    outputs += [v for v in py.assigned if v in latches and v not in outputs]
     params = list(py.params)
     _check_names(theorem, [*params, *py.assigned])
     sort = lambda v: symbols[v].sort  # noqa: E731
