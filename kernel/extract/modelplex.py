@@ -174,7 +174,9 @@ def _deterministic(p: Program, top: bool = True) -> bool:
 
 def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> tuple[list, list, str]:
     if _uses_families(step.parts):
-        raise MonitorError("a step over a family of boundaries: no controller monitor yet")
+        from certiloop.kernel.extract.modelplex_family import family_controller_monitor
+
+        return family_controller_monitor(theorem, step, controller_src)
     parts, outputs, symbols = _scalar_outputs(theorem, step)
     if _has_loop(Seq(tuple(parts))):
         if not _deterministic(Seq(tuple(parts))):
