@@ -30,11 +30,13 @@ Checked, for one ODE or any mode of a switched plant:
   * if the ODE has a polynomial solution (the proof core's `flow_solution`, differentiated
     back there), every evolved variable given in next_state is within tol of the solution
     at dt (absolute); a variable not given (a clock) takes the solution's value;
-  * otherwise a one-step a-priori enclosure (Picard–Lindelöf): a box B around prev with
-    prev + [0, dt]·F(B) ⊆ B, F evaluated in interval arithmetic rounded outwards; then x(dt)
-    lies in prev + [0, dt]·F(B) and every evolved variable given must lie within tol of that
-    interval (wide for long steps: a coarse but sound check). If no such box is found in a
-    few inflations, the monitor says False (it cannot vouch for the step).
+  * otherwise an a-priori enclosure (Picard–Lindelöf) over 16 substeps of length h: from the
+    interval X reached so far, a box B with X + [0, h]·F(B) ⊆ B (found by epsilon inflation,
+    F evaluated in interval arithmetic rounded outwards) encloses the flow over the substep,
+    and X + h·F(B) its end; every evolved variable given must lie within tol of the final
+    interval (first order: wide for long or stiff steps, a coarse but sound check up to the
+    float evaluation of the bounds). If no such box is found in a few inflations, the
+    monitor says False (it cannot vouch for the step).
 Models without a plant (algorithms, Hoare triples) have no plant monitor.
 
 Monitors come only from the model's syntax tree; nothing is written by hand per model. A shape
@@ -48,7 +50,7 @@ from certiloop.kernel.extract.errors import ExtractError, _brief
 from certiloop.kernel.extract.generate import extract
 from certiloop.kernel.extract.scalar import _latches, _Python
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
-from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars
+from certiloop.models.lang.terms import BOOL, INT, REAL, ModelError, Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
 
 
@@ -86,11 +88,11 @@ def monitors(theorem: Theorem) -> str:
         src_controller = extract(theorem)
         state, command, ctrl_code = _controller_monitor(theorem, step, src_controller)
         plant_state, plant_params, plant_code, plant_how = _plant_monitor(theorem, step)
-    except MonitorError as exc:
+    except ModelError as exc:  # ExtractError, MonitorError: one line that names the model
         message = " ".join(str(exc).split())
         if not message.startswith(f"{theorem.name}:"):
             message = f"{theorem.name}: {message}"
-        raise MonitorError(message) from None
+        raise (MonitorError if isinstance(exc, MonitorError) else ExtractError)(message) from None
     src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
                         state=state, command=command, plant_state=plant_state, plant_params=plant_params,
                         plant_how=plant_how)
@@ -366,7 +368,7 @@ def _plant_monitor(theorem: Theorem, step: _Step) -> tuple[list, list, str, str]
                 lines.append("    else:")
                 lines.append(f"        s1[{name!r}] = want")
         else:
-            hows.add("one-step interval enclosure within tol")
+            hows.add("interval enclosure (16 substeps) within tol")
             lines.append(f"    names = {names!r}")
             lines.append("    def rates(box):")
             lines.append("        b = {k: (v, v) for k, v in s0.items()}")
@@ -527,20 +529,27 @@ def _ipow(a, n):
     return out
 
 
-def _enclosure(s0, names, rates, dt, tries=12):
-    """x(dt) for all solutions from s0: an interval per evolved variable, or None. A box B
-    with s0 + [0, dt]*F(B) inside B encloses the flow on [0, dt] (Picard-Lindelof)."""
-    width = {n: 1e-9 + 1e-9 * abs(s0[n]) for n in names}
-    for _ in range(tries):
-        box = {n: (s0[n] - width[n], s0[n] + width[n]) for n in names}
-        f = rates(box)
-        step = {n: _imul((0.0, dt), f[n]) for n in names}
-        reach = {n: _iadd((s0[n], s0[n]), step[n]) for n in names}
-        if all(box[n][0] <= reach[n][0] and reach[n][1] <= box[n][1] for n in names):
-            # x(dt) = x0 + integral of f over [0, dt], and f stays in F(B): x0 + dt*F(B)
-            return {n: _iadd((s0[n], s0[n]), _imul((dt, dt), f[n])) for n in names}
-        width = {n: 2.0 * max(width[n], reach[n][1] - s0[n], s0[n] - reach[n][0]) for n in names}
-        if not all(math.isfinite(w) for w in width.values()):
+def _enclosure(s0, names, rates, dt, steps=16, tries=12):
+    """x(dt) for all solutions from s0: an interval per evolved variable, or None. Over each of
+    `steps` substeps of length h, a box B with X + [0, h]*F(B) inside B encloses the flow from
+    the interval X (Picard-Lindelof), and X + h*F(B) the state at its end."""
+    h = (_down(dt / steps), _up(dt / steps))  # contains the true dt/steps
+    x = {n: (s0[n], s0[n]) for n in names}
+    for _ in range(steps):
+        box = {n: (lo - 1e-12 * (1.0 + abs(lo)), hi + 1e-12 * (1.0 + abs(hi))) for n, (lo, hi) in x.items()}
+        for _ in range(tries):
+            f = rates(box)
+            reach = {n: _iadd(x[n], _imul((0.0, h[1]), f[n])) for n in names}
+            if all(box[n][0] <= reach[n][0] and reach[n][1] <= box[n][1] for n in names):
+                break
+            # the next candidate: what this box reached, widened by a tenth (epsilon inflation)
+            box = {n: (lo - 0.1 * (hi - lo) - 1e-12 * (1.0 + abs(lo)),
+                       hi + 0.1 * (hi - lo) + 1e-12 * (1.0 + abs(hi))) for n, (lo, hi) in reach.items()}
+            if not all(math.isfinite(v) for b in box.values() for v in b):
+                return None
+        else:
             return None
-    return None
+        # x(t + h) = x(t) + integral of f over the substep, and f stays in F(B)
+        x = {n: _iadd(x[n], _imul(h, f[n])) for n in names}
+    return x
 '''
