@@ -28,7 +28,6 @@ from test_extract import (
     _predictive_state,
     _scene,
     call,
-    run_step,
     step_theorem,
 )
 
