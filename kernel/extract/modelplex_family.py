@@ -119,6 +119,10 @@ def family_controller_monitor(theorem: Theorem, step: _Step, controller_src: str
         raise MonitorError("the boundary loop does not fold exactly one k := min(k, ...)")
     k, value = reductions[0]
     body = [_scalarise_program(s, index) for s in inner if _min_update(s) is None]
+    from certiloop.kernel.extract.analysis import _reads
+
+    if k in _reads(Seq(tuple(body))) or k in _names(value):
+        raise MonitorError(f"a boundary's value reads the running `{k}`: the boundaries are not independent")
     outputs = list(dict.fromkeys(_outputs(theorem, step, [*scalars_assigned, *pins, k], [], set())))
     if k not in outputs:
         raise MonitorError(f"the folded `{k}` is not an output of the step")
