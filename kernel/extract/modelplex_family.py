@@ -19,6 +19,7 @@ from __future__ import annotations
 
 from certiloop.kernel.extract.analysis import _conjuncts, _is_index_sort, _outputs, _parts, _Step
 from certiloop.kernel.extract.errors import ExtractError, _brief
+from certiloop.kernel.extract.monitor_terms import MonitorError, _conv, _fresh, _symbols, _term
 from certiloop.kernel.extract.scalar import _Python
 from certiloop.kernel.extract.vectorised import _min_update
 from certiloop.models.lang.programs import Assign, Choice, Havoc, Loop, Program, Seq, Test
@@ -31,8 +32,6 @@ def _scalarise(n: Node, index: str) -> Node:
     if n.op == "select" and len(n.args) == 2 and n.args[1].op == "var" and n.args[1].payload == index:
         return Var(n.args[0].payload, n.args[0].sort.range)
     if n.op == "var" and n.payload == index:
-        from certiloop.kernel.extract.modelplex import MonitorError
-
         raise MonitorError(f"the boundary index `{index}` is used as a value")
     if not n.args:
         return n
@@ -50,8 +49,6 @@ def _scalarise_program(p: Program, index: str) -> Program:
         return Seq(tuple(_scalarise_program(q, index) for q in p.parts))
     if isinstance(p, Choice):
         return Choice(tuple(_scalarise_program(q, index) for q in p.alternatives), p.labels)
-    from certiloop.kernel.extract.modelplex import MonitorError
-
     raise MonitorError(f"cannot monitor `{_brief(p)}` inside the boundary loop")
 
 
@@ -63,8 +60,6 @@ def _bound(f: Node) -> tuple[str, Node] | None:
 
 
 def family_controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> tuple[list, list, str]:
-    from certiloop.kernel.extract.modelplex import MonitorError, _conv, _fresh, _symbols, _term
-
     symbols = _symbols(theorem)
     loops = [q for q in step.parts if isinstance(q, Loop) and q.each is not None]
     if len(loops) != 1:
@@ -224,8 +219,6 @@ def _pre_reads(step: _Step, loop: Loop, symbols, done: str, pins, assigned) -> s
 def _boundary_fn(name: str, body: list[Program], goal: Node, symbols, index: str, cmd: str,
                  tol: str) -> tuple[str, list[str]]:
     """def name(c, cmd, tol): some path through one boundary's body ends where goal holds."""
-    from certiloop.kernel.extract.modelplex import MonitorError, _conv
-
     local = {n: (Var(n, s.sort.range) if s.sort.is_array else s) for n, s in symbols.items()}
     local[cmd] = Var(cmd, REAL)
     local[tol] = Var(tol, REAL)
