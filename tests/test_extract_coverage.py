@@ -24,11 +24,11 @@ REFUSED = {
     "rcm.constraint_exponential": "not a control loop",  # a lone ODE: no control step
     "rcm.constraint_euler_4ms": "repeats any number of times",  # the plant's Euler map, no decision
     "rcm.barrier_clearance": "computes nothing",  # `?true`: an arithmetic fact, no step
-    "raven.deviation_stop_3d": "must be pinned by an equation",  # a disturbance bounded by a norm
     "raven.jump_detected": "2 plant ODEs",  # a fault (jump) between two flows
 }
 EXTRACTS = [*CHECKED_IN_TEST_EXTRACT, "rcm.nullspace", "rcm.decoupling", "rcm.damping_bounds",
-            "rcm.barrier_continuous", "rcm.axial_guard", "raven.deviation_stop", "raven.haptic_force"]
+            "rcm.barrier_continuous", "rcm.axial_guard", "raven.deviation_stop", "raven.deviation_stop_3d",
+            "raven.haptic_force"]
 
 rng = np.random.default_rng(19)
 
@@ -167,3 +167,51 @@ def test_raven_haptic_force():
             assert (F, dx, dy, dz) == (0.0, 0.0, 0.0, 0.0)
             forces.add("off")
     assert forces == {"off", "spring", "saturated"}
+
+
+def stop_3d_scene(m: int):
+    """A state of raven.deviation_stop_3d inside its assumptions (m planes): the scalars and the
+    families as numpy arrays (for the code) and as Tables with the universe (the interpreter)."""
+    from certiloop.falsify.evaluate import Table
+
+    tol, U, eps = rng.uniform(1e-3, 5e-3), rng.uniform(0, 0.05), rng.uniform(1e-3, 0.02)
+    margin = tol + U * eps
+    pm = rng.uniform(-0.05, 0.05, 3)
+    normals = [v / np.linalg.norm(v) for v in rng.normal(size=(m, 3))]
+    points = [pm - (margin + rng.choice([0.0, rng.uniform(0, 0.01)]) + 1e-12) * n for n in normals]
+    pr = pm + rng.normal(size=3) * rng.choice([tol / 4, 2 * tol])
+    if any((pr - r) @ n < 0 for r, n in zip(points, normals)):
+        pr = pm.copy()  # the assumptions: the robot tip on the model's tip or on every plane's safe side
+    u = rng.normal(size=3)
+    u *= rng.uniform(0, U) / np.linalg.norm(u)
+    v = rng.normal(size=3) * rng.choice([0.0, 0.01, 1.0])
+    scalars = {"tol": tol, "U": U, "eps": eps, "stopped": float(rng.choice([0.0, 1.0], p=[0.8, 0.2])),
+               **{f"pm{x}": pm[a] for a, x in enumerate("xyz")}, **{f"pr{x}": pr[a] for a, x in enumerate("xyz")},
+               **{f"u{x}": u[a] for a, x in enumerate("xyz")}, **{f"v{x}": v[a] for a, x in enumerate("xyz")}}
+    arrays = {f"{f}{x}": np.array([float(p[a]) for p in pts]) for f, pts in (("r", points), ("n", normals))
+              for a, x in enumerate("xyz")}
+    tables = {k: Table({(j,): float(x) for j, x in enumerate(arr)}) for k, arr in arrays.items()}
+    return {**scalars, **arrays}, {**scalars, **tables, "#universe:B": range(m)}
+
+
+def test_raven_deviation_stop_3d():
+    """First enabled: stop on a deviation above tol, else the fault at its given value (the
+    model's only fault alternative) with the operator's velocity, where it keeps every plane's
+    margin for the period; the interpreter agrees, families of 0 to 4 planes."""
+    name = "raven.deviation_stop_3d"
+    outs = ["vx", "vy", "vz", "ux", "uy", "uz", "stopped"]
+    outcomes = set()
+    for trial in range(60):
+        values, state = stop_3d_scene(trial % 5)
+        known = Known({k: values[k] for k in outs[:6]})
+        final = run_step(step_theorem(name), state, known)
+        *got, enabled = call(name, values)
+        assert enabled == (final is not None)
+        if final is None:
+            outcomes.add("no run")
+            continue
+        assert all(agree(g, float(final[o])) for g, o in zip(got, outs)), (got, final)
+        deviation = sum((values[f"pr{x}"] - values[f"pm{x}"]) ** 2 for x in "xyz")
+        outcomes.add("stop" if got[-1] == 1.0 and (values["stopped"] == 1 or deviation > values["tol"] ** 2)
+                     else "follow")
+    assert outcomes == {"stop", "follow", "no run"}

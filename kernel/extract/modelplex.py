@@ -45,7 +45,15 @@ they cannot be generated for is refused with a one-line MonitorError naming why.
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.analysis import _mode_choice, _outputs, _parts, _split, _Step, _uses_families
+from certiloop.kernel.extract.analysis import (
+    _families_only_tested,
+    _mode_choice,
+    _outputs,
+    _parts,
+    _split,
+    _Step,
+    _uses_families,
+)
 from certiloop.kernel.extract.errors import ExtractError, _brief
 from certiloop.kernel.extract.generate import extract
 from certiloop.kernel.extract.modelplex_family import family_controller_monitor
@@ -160,7 +168,7 @@ def _deterministic(p: Program, top: bool = True) -> bool:
 
 
 def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> tuple[list, list, str]:
-    if _uses_families(step.parts):
+    if _uses_families(step.parts) and not _families_only_tested(step.parts):
         return family_controller_monitor(theorem, step, controller_src)
     parts, outputs, symbols = _scalar_outputs(theorem, step)
     if _has_loop(Seq(tuple(parts))):

@@ -69,6 +69,7 @@ class _Python:
         self.array_writes: dict[str, list[tuple[Node, ...] | None]] = {}  # array -> loop bounds per write
         self.loops: list[tuple[str, Node, Node]] = []  # enclosing for loops (counter, lo, hi)
         self.taken: set[str] = set(symbols) | RESERVED
+        self.elementwise: str | None = None  # the bound index inside a `∀j` over the boundaries
 
     def line(self, text: str) -> None:
         self.lines.append("    " * self.depth + text)
@@ -118,6 +119,10 @@ class _Python:
             root = n.args[0].payload
             if f"[{root}]" in subst:
                 raise _refuse(n, f"reads {root} after the same alternative wrote one of its cells")
+            if self.elementwise is not None and len(n.args) == 2 and n.args[1].op == "var" \
+                    and n.args[1].payload == self.elementwise:
+                self.read(root)  # the whole family, as a numpy array over the boundaries
+                return root
             if any(_is_index_sort(s) for s in n.args[0].sort.domain):
                 raise _refuse(n, "a family over an index sort needs the vectorised form (a foreach)")
             idx = [self.code(a, subst) for a in n.args[1:]]
@@ -140,7 +145,12 @@ class _Python:
             if op == "/":
                 return f"({a[0]} / {a[1]})"
             return a[0] if n.payload == 1 else f"({a[0]} ** {n.payload})"
+        if op == "forall" and self.elementwise is None and len(n.payload) == 1 \
+                and _is_index_sort(n.payload[0].sort):
+            return self.over_family(n, subst)
         a = [self.code(x, subst) for x in n.args]
+        if self.elementwise is not None and op in ("and", "or", "not", "implies", "iff"):
+            return _elementwise(op, a)
         if op == "and":
             return "(" + " and ".join(a) + ")" if a else "True"
         if op == "or":
@@ -152,6 +162,15 @@ class _Python:
         if op == "iff":
             return f"({a[0]} == {a[1]})"
         raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
+
+    def over_family(self, n: Node, subst: dict[str, str | None] | None) -> str:
+        """`∀j φ(j)` over the boundaries: φ elementwise over the families as numpy arrays
+        (True for an empty family)."""
+        self.elementwise = n.payload[0].payload
+        try:
+            return f"bool(np.all({self.code(n.args[0], subst)}))"
+        finally:
+            self.elementwise = None
 
     def test_code(self, atom: Node, subst: dict[str, str | None] | None = None) -> str:
         self.tested.update(free_vars(atom))
@@ -419,8 +438,12 @@ class _Python:
         if not (atom.op == "cmp" and atom.payload == "==") and target in path.subst \
                 and (target not in self.defined or target in self.admitted) and target not in self.pinned:
             # `u := *; ?|u| <= U` with nothing pinning u: the value is an input, admitted as given
-            self.inputs[target] = self.admitted[target] = None
-            path.subst[target] = self.read(target)
+            for v in [v for v, s in path.subst.items() if s is None and not v.startswith("[")
+                      and _mentions(atom, v)]:
+                if v in self.defined and v not in self.admitted or v in self.pinned:
+                    raise _refuse(atom, f"`{v} := *` gets a new value after the step read or solved it")
+                self.inputs[v] = self.admitted[v] = None
+                path.subst[v] = self.read(v)
             path.items.append(("if", self.test_code(atom, path.subst)))
             return [path]
         roots = _solutions(atom, target)
@@ -436,6 +459,19 @@ class _Python:
             self.pinned.add(target)
             out.append(r)
         return out
+
+
+def _elementwise(op: str, a: list[str]) -> str:
+    """A connective over numpy boolean arrays (inside a `∀j` over the boundaries)."""
+    if op == "and":
+        return "(" + " & ".join(a) + ")" if a else "True"
+    if op == "or":
+        return "(" + " | ".join(a) + ")" if a else "False"
+    if op == "not":
+        return f"(~{a[0]})"
+    if op == "implies":
+        return f"((~{a[0]}) | {a[1]})"
+    return f"({a[0]} == {a[1]})"
 
 
 def _latches(parts: list[Program], py: _Python) -> set[str]:
