@@ -434,11 +434,11 @@ def _close(value, want, tol):
 
 
 def _down(x):
-    return np.nextafter(x, -np.inf)
+    return math.nextafter(float(x), -math.inf)
 
 
 def _up(x):
-    return np.nextafter(x, np.inf)
+    return math.nextafter(float(x), math.inf)
 
 
 def _iconst(v):
