@@ -493,3 +493,22 @@ def test_cli_extract_monitors(tmp_path, capsys):
                  "--cache", str(tmp_path / "c")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err[-1].startswith("certiloop: error: rcm.constraint_set_invariant: ") and not bad.exists()
+
+
+def test_int_command_must_be_an_integer_and_overlapping_guards_admit_both():
+    """An Int output compares exactly (1.5 is no command, nor is a Bool); where both guards hold
+    (x = 0) both alternatives are runs of the model, so both commands pass."""
+    from certiloop.models.lang.programs import assign, branch, choice, loop, ode, seq
+    from certiloop.models.lang.programs import test as check
+    from certiloop.models.lang.terms import TRUE, Int, Real
+    from certiloop.models.lang.theorem import Theorem
+
+    x, n = Real("x"), Int("n")
+    step = choice(branch("a", check(x >= 0), assign(n, 1)), branch("b", check(x <= 0), assign(n, 2)))
+    t = Theorem("tests.intcmd", TRUE, loop(seq(step, ode({x: n}))), TRUE)
+    ns: dict = {}
+    exec(compile(monitors(t), "<intcmd>", "exec"), ns)
+    assert (ns["STATE"], ns["COMMAND"]) == (["x"], ["n"])
+    assert [ns["controller_monitor"]({"x": 1.0}, {"n": v}) for v in (1, 1.0, 1.5, 2, True)] == \
+        [True, True, False, False, False]
+    assert [ns["controller_monitor"]({"x": 0.0}, {"n": v}) for v in (1, 2, 3)] == [True, True, False]
