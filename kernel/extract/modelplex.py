@@ -14,7 +14,12 @@ nondeterministic `o := *` of an output inside the step is the existential the co
 a path) or, where only inequalities read them, are state the caller gives, as for the
 extracted controller. tol = 0 compares exactly with the value the model's own term gives
 in float64 (what the extracted controller returns passes bit for bit); tol > 0 also admits a
-command within tol of such a value. Guards are evaluated in float64 like the controller's.
+command within tol of such a value; Int and Bool values compare exactly (1.5 is no Int).
+Guards are evaluated in float64 like the controller's (not rounded outwards).
+A step over a family of boundaries (`foreach` with `k := min(k, kt)`) has its own monitor
+(modelplex_family.py): the boundaries' choices are independent, so k passes iff no boundary
+forces kt below k − tol and k0 or some boundary can give k within tol. A step that reads
+families only under `∀j` tests is scalar code with `np.all` over the arrays.
 A step whose choices are all if/else (deterministic) but that has `for` loops (an algorithm
 such as cfmpa.builtdr) has exactly one run: there the monitor runs the extracted controller
 and compares its outputs (arrays cell by cell) with the command.
