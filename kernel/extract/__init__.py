@@ -52,6 +52,7 @@ The package, one job a module (no module imports one listed after it):
   * template — the generated module's header and docstrings, reserved names;
   * analysis — the control step of the model (`controller`), its outputs, shared syntax queries;
   * roots — solving a test's equation for the value it pins down;
+  * shapes — small shapes the scalar code recognises (`{?true}*`, pins first, latches, ∀j);
   * vectorised — the numpy code over a family of boundaries;
   * scalar — the plain Python code (`if`/`elif`, `for` loops);
   * generate — `extract`: choose the shape, generate, name the model in every refusal;

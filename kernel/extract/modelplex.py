@@ -64,7 +64,8 @@ from certiloop.kernel.extract.errors import ExtractError, _brief
 from certiloop.kernel.extract.generate import extract
 from certiloop.kernel.extract.modelplex_family import family_controller_monitor
 from certiloop.kernel.extract.monitor_terms import MonitorError, _conv, _fresh, _symbols, _term
-from certiloop.kernel.extract.scalar import _latches, _Python
+from certiloop.kernel.extract.scalar import _Python
+from certiloop.kernel.extract.shapes import _latches
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, And, ModelError, Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -135,7 +136,7 @@ def _scalar_outputs(theorem: Theorem, step: _Step) -> tuple[list[Program], list[
         return parts + [modes], rates, symbols
     py = _Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
     py.block(parts)
-    latches = _latches(parts, py) if step.where in ("before", "after") else set()
+    latches = _latches(parts, py.params) if step.where in ("before", "after") else set()
     if latches - live:
         live |= latches
         py = _Python(symbols, live, Seq(tuple(parts)))

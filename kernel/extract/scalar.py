@@ -21,6 +21,7 @@ from certiloop.kernel.extract.analysis import (
 )
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _Root, _solutions
+from certiloop.kernel.extract.shapes import _elementwise, _is_annotation, _latches, _pins_first
 from certiloop.kernel.extract.template import ENTRY, HEADER, RESERVED, SCALAR, _check_names, _tag
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars
@@ -461,55 +462,6 @@ class _Python:
         return out
 
 
-def _elementwise(op: str, a: list[str]) -> str:
-    """A connective over numpy boolean arrays (inside a `∀j` over the boundaries)."""
-    if op == "and":
-        return "(" + " & ".join(a) + ")" if a else "True"
-    if op == "or":
-        return "(" + " | ".join(a) + ")" if a else "False"
-    if op == "not":
-        return f"(~{a[0]})"
-    if op == "implies":
-        return f"((~{a[0]}) | {a[1]})"
-    return f"({a[0]} == {a[1]})"
-
-
-def _latches(parts: list[Program], py: _Python) -> set[str]:
-    """Scalars the step reads before it assigns them (`?stopped = 1 | ...; stopped := 1`):
-    state carried from one step to the next, so an output."""
-    assigned: set[str] = set()
-
-    def visit(q: Program) -> None:
-        if isinstance(q, Assign) and q.target.op == "var" and not q.target.sort.is_array:
-            assigned.add(q.target.payload)
-        for c in (q.parts if isinstance(q, Seq) else q.alternatives if isinstance(q, Choice) else
-                  (q.body,) if isinstance(q, Loop) else ()):
-            visit(c)
-
-    for q in parts:
-        visit(q)
-    return assigned & set(py.params)
-
-
-def _is_annotation(q: Program) -> bool:
-    """`{?true}*`: a loop that only carries an invariant for the proof."""
-    return isinstance(q, Loop) and q.each is None and isinstance(q.body, Test) and q.body.cond.op == "true"
-
-
-def _pins_first(atoms: list[Node], open_names: list[str]) -> list[Node]:
-    """Move an equation that pins an open `x := *` before the atoms that read x ahead of it
-    (`?nrm >= 0 & nrm*nrm = n2` solves for nrm, then checks it); other atoms keep their
-    order. The order of a conjunction does not change its value in the generated code: a
-    division by zero gives inf/NaN, never an exception."""
-    out = list(atoms)
-    for name in open_names:
-        readers = [k for k, a in enumerate(out) if _mentions(a, name)]
-        pin = next((k for k in readers if out[k].op == "cmp" and out[k].payload == "=="), None)
-        if pin is not None and readers[0] < pin:
-            out.insert(readers[0], out.pop(pin))
-    return out
-
-
 def _python(theorem: Theorem, step: "_Step") -> str:
     parts = list(step.parts)
     symbols = {**free_vars(theorem.assumptions), **theorem.program.symbols(), **free_vars(theorem.guarantee)}
@@ -522,7 +474,7 @@ def _python(theorem: Theorem, step: "_Step") -> str:
         symbols.update((r, Var(r, REAL)) for r in rates)
     py = _Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
     py.block(parts)
-    latches = _latches(parts, py) if step.where in ("before", "after") else set()
+    latches = _latches(parts, py.params) if step.where in ("before", "after") else set()
     if latches - live:  # a value the step reads and sets (`stopped := 1`): the next step needs it
         live |= latches
         py = _Python(symbols, live, Seq(tuple(parts)))
