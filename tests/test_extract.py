@@ -399,10 +399,13 @@ def _refused(program, match: str, assumptions=TRUE, guarantee=None):
 
 def test_unsupported_shapes_are_refused_with_one_line_reasons():
     plant = ode({x: y})
-    # a nondeterministic value nothing pins down, read later
-    msg = _refused(loop(seq(choice(branch("a", havoc(y), check(y >= 0)), branch("b", assign(y, 1))), plant)),
-                   "must be pinned by an equation")
+    # a nondeterministic value nothing pins down or checks, read later
+    msg = _refused(loop(seq(choice(branch("a", havoc(y)), branch("b", assign(y, 1))), plant)),
+                   "never pinned down but read later")
     assert "`" in msg
+    # a new value for y after the step set it: the caller's y is not that value
+    _refused(loop(seq(assign(y, 2), choice(branch("a", havoc(y), check(y >= 0)), branch("b", assign(y, 1))),
+                      plant)), "must be pinned by an equation")
     # a cubic equation
     _refused(loop(seq(choice(branch("a", havoc(y), check(y**3 == x)), branch("b", assign(y, 0))), plant)),
              "degree 3")

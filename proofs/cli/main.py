@@ -84,6 +84,9 @@ def build_parser() -> argparse.ArgumentParser:
     extract.add_argument("--cache", metavar="DIR", help="proof cache folder (default .certiloop/cache, "
                          "or $CERTILOOP_CACHE): a model proved there under this exact claim is not re-proved")
     extract.add_argument("--no-cache", action="store_true", help="prove the model afresh")
+    extract.add_argument("--monitors", action="store_true",
+                         help="write the model's ModelPlex-style monitors (controller_monitor, "
+                         "plant_monitor) instead of its controller")
     _budget_flags(extract)
     extract.add_argument("--jobs", metavar="N", type=int, default=None,
                          help="worker processes for the proof (default: number of cores)")
@@ -468,7 +471,12 @@ def cmd_extract(args: argparse.Namespace) -> int:
         print(f"certiloop: error: refusing to extract {theorem.name}: it is {verdict}, not proved{why}",
               file=sys.stderr)
         return EXIT_FAILED
-    source = extract(theorem)
+    if args.monitors:
+        from certiloop.kernel.extract.modelplex import monitors
+
+        source = monitors(theorem)
+    else:
+        source = extract(theorem)
     if args.output:
         Path(args.output).write_text(source)
         if level > ui.QUIET:
