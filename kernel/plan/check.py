@@ -11,7 +11,8 @@ What is checked, for one run of a `certiloop plan` JSON file:
   Trans_z(d) to the frame origin in mpmath's interval arithmetic, from the DH table written
   out below in exact degrees and millimetres. A piece that fails is halved up to
   CHECK_DEPTH times before the segment is declared bad (a deterministic budget);
-* the planes, margin and joint limits are those of the library scene the file names.
+* the planes, margin and joint limits are those of the library scene the file names
+  (checked last, so that a certificate against altered planes still names its bad segment).
 
 Nothing here comes from the planner's own proof (`certify.py`: numpy floats with outward
 rounding over a closed-form reduction of the same chain): only the certificate's pieces,
@@ -127,24 +128,19 @@ def check_run(run: dict, library_scenes: dict | None = None) -> CheckResult:
     scene, segments, waypoints = cert["scene"], cert["segments"], run.get("waypoints")
     if not isinstance(waypoints, list) or len(waypoints) < 2 or any(len(w) != 6 for w in waypoints):
         raise ValueError("'waypoints' must be a list of at least two 6-joint configurations")
-    if library_scenes is not None:
-        known = library_scenes.get(scene.get("name"))
-        if known is None:
-            return CheckResult(False, None, f"unknown scene {scene.get('name')!r}")
-        if known.to_json() != scene:
-            return CheckResult(False, None, f"the certificate's planes, margin or limits differ from "
-                                            f"the library scene {known.name}")
     if [float(v) for v in waypoints[0]] != [float(v) for v in scene["start"]]:
         return CheckResult(False, 0, "the path does not begin at the scene's start")
     if [float(v) for v in waypoints[-1]] != [float(v) for v in scene["goal"]]:
         return CheckResult(False, len(waypoints) - 2, "the path does not end at the scene's goal")
     if len(segments) != len(waypoints) - 1:
-        return CheckResult(False, None, f"{len(segments)} certified segments for {len(waypoints) - 1} segments")
+        return CheckResult(False, None, f"{len(segments)} certified segments for a path of "
+                                        f"{len(waypoints) - 1}")
     counter = [0]
     for i, seg in enumerate(segments):
         points = [Fraction(p) for p in seg["pieces"]]
         if points[0] != 0 or points[-1] != 1 or any(b <= a for a, b in zip(points, points[1:])):
-            return CheckResult(False, i, f"segment {i}: breakpoints must rise from 0 to 1", counter[0])
+            return CheckResult(False, i, f"segment {i}: breakpoints must rise from 0 to 1",
+                               counter[0])
         qa = [_exact(iv, v) for v in waypoints[i]]
         qb = [_exact(iv, v) for v in waypoints[i + 1]]
         for a, b in zip(seg["pieces"], seg["pieces"][1:]):
@@ -152,4 +148,11 @@ def check_run(run: dict, library_scenes: dict | None = None) -> CheckResult:
             if not _segment_clear(iv, scene, qa, qb, t0, t1, CHECK_DEPTH, counter):
                 return CheckResult(False, i, f"segment {i} (waypoint {i} -> {i + 1}): piece [{a}, {b}] "
                                              "is not proved clear", counter[0])
+    if library_scenes is not None:
+        known = library_scenes.get(scene.get("name"))
+        if known is None:
+            return CheckResult(False, None, f"unknown scene {scene.get('name')!r}")
+        if known.to_json() != scene:
+            return CheckResult(False, None, f"the certificate's planes, margin or limits differ from "
+                                            f"the library scene {known.name}")
     return CheckResult(True, None, "", counter[0])

@@ -47,7 +47,8 @@ from certiloop.kernel.plan import kinematics
 from certiloop.kernel.plan.certify import prove_segment
 from certiloop.kernel.plan.scenes import Scene
 
-INSTALL_HINT = "FMT* planning needs OMPL: pip install 'certiloop[plan]' (ompl >= 2; Linux x86_64/aarch64 wheels)"
+INSTALL_HINT = ("FMT* planning needs OMPL: pip install 'certiloop[plan]' "
+                "(ompl >= 2; wheels for Linux x86_64/aarch64)")
 DENSE_STEP = 0.005  # normalised joint units between float checks along an edge (infinity norm)
 EDGE_SECONDS = 0.35  # s per edge for the rest-to-rest quintic of eq 1's acceleration term
 QUINTIC_NODES = 16

@@ -113,7 +113,8 @@ class Scene:
 
 FRS_BOX = Scene(
     name="raven.frs_box",
-    description="the paper's FRS-dome experiment: retract from deep in the cavity over a partition, reach the ring",
+    description="the paper's FRS-dome experiment: retract from deep in the cavity over a partition, "
+                "reach the ring",
     joint_lo=(0.0, 45 * DEG, 0.23, -90 * DEG, -90 * DEG, -90 * DEG),
     joint_hi=(90 * DEG, 135 * DEG, 0.56, 90 * DEG, 90 * DEG, 90 * DEG),
     start=(0.5603, 1.6484, 0.3031, 0.0, 0.0, 0.0),
