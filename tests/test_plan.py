@@ -103,6 +103,15 @@ def test_outward_rounding_encloses_exact_sums_and_products():
     assert Fraction(float(p.lo)) <= exact_p <= Fraction(float(p.hi))
 
 
+def test_planning_modules_load_no_solver_and_no_ompl_until_planning():
+    code = ("import sys, certiloop.kernel.plan.planner, certiloop.kernel.plan.certify, "
+            "certiloop.kernel.plan.check, certiloop.kernel.plan.scenes; "
+            "print(sorted(m for m in ('z3', 'sympy', 'hypothesis', 'scipy', 'ompl', 'mpmath') "
+            "if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
 # ----------------------------------------------------------------------------- the scene
 
 

@@ -276,7 +276,7 @@ def plan_once(scene: Scene, samples: int, seed: int, eta=(0.1, 0.5), radius_mult
                 break
             path = pdef.getSolutionPath()
             u = np.array([[path.getState(k)[i] for i in range(6)] for k in range(path.getStateCount())])
-            q = scene.lo + u * (scene.hi - scene.lo)
+            q = np.clip(scene.lo + u * (scene.hi - scene.lo), scene.lo, scene.hi)  # rounding at u = 1
             q[0], q[-1] = scene.start, scene.goal  # exactly the scene's (the states are normalised)
             bad, segments, pieces = certify_path(scene, q)
             run.pieces += pieces
