@@ -1,6 +1,7 @@
 """Table 2 of seed 003 beside ours: certified FMT* (OMPL) on raven.frs_box.
 
     python benchmarks/bench_fmt.py [--runs 20] [--samples 200,500,1000,2000] [--eta 0.1,0.5]
+    python benchmarks/bench_fmt.py --fig7 [--runs 20]     # Fig 7: eta = (1, 0) vs (0, 1) at n = 500
 
 For each n: success rate (a certified path, re-checked independently), median planning time
 (FMT* plus the certification of its path), median re-check time, median cost (eq 1 as the
@@ -45,7 +46,10 @@ def main() -> None:
     parser.add_argument("--samples", default="200,500,1000,2000")
     parser.add_argument("--eta", default="0.1,0.5")
     parser.add_argument("--no-tracking", action="store_true", help="skip the fixture tracking")
+    parser.add_argument("--fig7", action="store_true", help="Fig 7's two objectives at n = 500 instead")
     args = parser.parse_args()
+    if args.fig7:
+        return fig7(args.runs)
     eta = tuple(float(x) for x in args.eta.split(","))
     free = free_fraction(FRS_BOX)
     rows = []
@@ -81,6 +85,21 @@ def main() -> None:
                      "tracked": len(track_s), "fixture_crossings": crossings,
                      "bare_sloppy_crossings": bare_crossings})
     record("fmt", rows)
+
+
+def fig7(runs: int) -> None:
+    """The paper (n = 500): eta = (1, 0) returns 36 waypoints, eta = (0, 1) returns 54."""
+    free = free_fraction(FRS_BOX)
+    rows = []
+    for eta, paper in (((1.0, 0.0), 36), ((0.0, 1.0), 54)):
+        done = [plan_once(FRS_BOX, 500, seed, eta, free_volume=free) for seed in range(runs)]
+        ok = [r for r in done if r.success]
+        rows.append({"eta": f"{eta[0]:g},{eta[1]:g}", "runs": runs, "success": len(ok) / runs,
+                     "median_waypoints": _median([len(r.waypoints) for r in ok]), "paper_waypoints": paper,
+                     "median_length": _median([r.length for r in ok]),
+                     "median_accel_quadrature": _median([r.accel_quadrature for r in ok]),
+                     "median_planning_s": _median([r.planning_s for r in done])})
+    record("fmt_fig7", rows)
 
 
 if __name__ == "__main__":
