@@ -18,7 +18,7 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from certiloop.kernel import raven
@@ -152,6 +152,28 @@ def test_a_short_clear_segment_is_proved_and_sampling_agrees():
     proof = prove_segment(FRS_BOX, qa, qb)
     assert proof.proved and proof.least_margin >= 0
     assert dense_clearance(FRS_BOX, qa, qb).min() >= proof.least_margin - 1e-12
+
+
+unit6 = st.lists(st.floats(0, 1), min_size=6, max_size=6)
+
+
+@settings(max_examples=40)
+@given(unit6, st.lists(st.floats(-0.15, 0.15), min_size=6, max_size=6))
+def test_whatever_the_prover_proves_the_checker_accepts_and_sampling_confirms(start, step):
+    span = FRS_BOX.hi - FRS_BOX.lo
+    qa = FRS_BOX.lo + np.array(start) * span
+    qb = np.clip(qa + np.array(step) * span, FRS_BOX.lo, FRS_BOX.hi)
+    assume(FRS_BOX.valid(np.array([qa, qb])).all())
+    proof = prove_segment(FRS_BOX, qa, qb)
+    sampled = dense_clearance(FRS_BOX, qa, qb, points=2001).min()
+    if not proof.proved:
+        return
+    assert sampled >= -1e-12, "the prover proved a segment that sampling shows crossing"
+    scene = FRS_BOX.to_json()
+    run = {"waypoints": [list(qa), list(qb)],
+           "certificate": {"scene": {**scene, "start": list(qa), "goal": list(qb)},
+                           "segments": [{"index": 0, "pieces": proof.breakpoints()}]}}
+    assert check_run(run).ok  # no library comparison: the start and goal are this segment's
 
 
 # ----------------------------------------------------------------------------- bad input
