@@ -5,7 +5,9 @@
 
 For each n: success rate (a certified path, re-checked independently), median planning time
 (FMT* plus the certification of its path), median re-check time, median cost (eq 1 as the
-planner optimises it), waypoints, and tracking of the tip (kernel/plan/track.py): runs that
+planner optimises it), waypoints; the paper's execution, per-joint PD on `RavenArm` with a
+quintic per edge (simulated tracking time, runs whose true wrist or tip crosses, median least
+clearance); and tracking of the tip (kernel/plan/track.py): runs that
 cross a boundary with the virtual fixture, and without it for an operator lagging far behind
 the reference (the paper's success falls with n because shorter paths pass nearer the dome
 wall; here the bare operator's corner cutting stands for that), beside the paper's Table 2
@@ -25,7 +27,7 @@ from common import record
 
 from certiloop.kernel.plan.planner import free_fraction, plan_once
 from certiloop.kernel.plan.scenes import FRS_BOX
-from certiloop.kernel.plan.track import track
+from certiloop.kernel.plan.track import track, track_joints
 
 PAPER = {200: {"planning_s": 3.676, "tracking_s": 4.705, "waypoints": 13.5, "cost": 21.9, "success": 0.90},
          500: {"planning_s": 15.935, "tracking_s": 4.277, "waypoints": 14.3, "cost": 11.1, "success": 0.85},
@@ -58,9 +60,10 @@ def main() -> None:
         for seed in range(args.runs):
             runs.append(plan_once(FRS_BOX, n, seed, eta, free_volume=free))
         ok = [r for r in runs if r.success]
-        crossings, bare_crossings, track_s = 0, 0, []
+        crossings, bare_crossings, track_s, pd = 0, 0, [], []
         if not args.no_tracking:
             for r in ok:
+                pd.append(track_joints(FRS_BOX, r.waypoints))
                 t0 = time.perf_counter()
                 result = track(FRS_BOX, r.waypoints, per_segment=200, settle=300)
                 track_s.append(time.perf_counter() - t0)
@@ -82,7 +85,11 @@ def main() -> None:
                      "paper_waypoints": paper.get("waypoints", float("nan")),
                      "replans": sum(r.replans for r in runs),
                      "median_motion_checks": _median([r.motion_checks for r in runs]),
-                     "tracked": len(track_s), "fixture_crossings": crossings,
+                     "tracked": len(track_s), "pd_tracking_s": _median([t.seconds for t in pd]),
+                     "paper_tracking_s": paper.get("tracking_s", float("nan")),
+                     "pd_crossings": sum(t.min_clearance < 0 for t in pd),
+                     "pd_median_min_clearance_mm": 1000 * _median([t.min_clearance for t in pd]),
+                     "fixture_crossings": crossings,
                      "bare_sloppy_crossings": bare_crossings})
     record("fmt", rows)
 

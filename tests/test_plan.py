@@ -313,3 +313,21 @@ def test_tracking_with_the_fixture_crosses_no_boundary(planned):
     assert min(bare.min_wall, bare.min_block) < -1e-3
     # ... and the fixture holds it out (it may stop short of the goal: ctrl2 scales, never slides)
     assert held.min_wall >= -1e-12 and held.min_block >= -1e-12
+
+
+def test_joint_pd_tracking_sees_a_crossing_on_the_straight_path():
+    from certiloop.kernel.plan.track import track_joints
+
+    straight = track_joints(FRS_BOX, [FRS_BOX.start, FRS_BOX.goal])
+    assert straight.min_clearance < -0.005 and straight.final_error < 2e-3
+
+
+@needs_ompl
+def test_joint_pd_tracking_of_a_planned_path_reaches_the_goal(planned):
+    from certiloop.kernel.plan.track import track_joints
+
+    _, doc, _ = planned
+    run = next(r for r in doc["runs"] if r["success"])
+    result = track_joints(FRS_BOX, run["waypoints"])
+    assert result.final_error < 2e-3 and np.isfinite(result.min_clearance)
+    assert result.seconds == pytest.approx(0.35 * (len(run["waypoints"]) - 1) + 0.3)
