@@ -137,7 +137,7 @@ def build_parser() -> argparse.ArgumentParser:
     campaign.add_argument("--search", action="store_true", help="instead of random runs, let hypothesis "
                           "search the faults for a boundary crossing and shrink the one it finds")
     campaign.add_argument("--max-examples", metavar="N", type=int,
-                          help="faults the --search tries (default 200)")
+                          help="faults the --search tries (default 500)")
     campaign.add_argument("--jobs", metavar="N", type=int, default=1,
                           help="worker processes for the batches (default 1; results do not change)")
     campaign.add_argument("--executor", metavar="URL", help="run the batches on a Dask scheduler at "
@@ -147,6 +147,33 @@ def build_parser() -> argparse.ArgumentParser:
     campaign.add_argument("--csv", metavar="F", help="write one row per run to F (same seed, same bytes)")
     campaign.add_argument("--json", metavar="F", help="write the summary as JSON to F ('-' for stdout)")
     campaign.add_argument("-q", "--quiet", action="store_true", help="print only the summary line")
+
+    plan = sub.add_parser(
+        "plan", help="plan Raven-II motions with FMT* (OMPL) and certify every returned path",
+        description="Run FMT* (OMPL's og.FMT; needs certiloop[plan]) R times on SCENARIO with N "
+        "samples, seeds S, S+1, ...; every returned path is proved clear segment by segment with "
+        "interval arithmetic and re-checked independently before it counts as a success. Exit 0 "
+        "if some run returned a certified path, 1 if none did.")
+    plan.add_argument("scenario", metavar="SCENARIO", help="raven.frs_box (the paper's FRS-dome scene)")
+    plan.add_argument("--samples", metavar="N", type=int, required=True, help="FMT* samples per run")
+    plan.add_argument("--runs", metavar="R", type=int, default=1, help="runs (default 1)")
+    plan.add_argument("--eta", metavar="ETA1,ETA2", default="0.1,0.5",
+                      help="eq 1's weights of path length and tip acceleration (default 0.1,0.5, Table 2's)")
+    plan.add_argument("--seed", metavar="S", type=int, default=0, help="seed of run 0 (default 0)")
+    plan.add_argument("--radius-multiplier", metavar="X", type=float,
+                      help="FMT*'s radius multiplier on eq 2's r_n (default OMPL's 1.1)")
+    plan.add_argument("--wall-cap", metavar="S", type=float, default=600.0,
+                      help="wall-clock guard per run (default 600 s): reaching it is a failure that "
+                      "says so; the verdict otherwise depends only on samples and seed")
+    plan.add_argument("--json", metavar="F", help="write {\"runs\": [...], ...} to F ('-' for stdout)")
+    plan.add_argument("-q", "--quiet", action="store_true", help="print only the summary line")
+
+    check_path = sub.add_parser(
+        "check-path", help="re-check the certificates of a `certiloop plan --json` file",
+        description="Re-check every certified path in FILE independently (mpmath interval "
+        "arithmetic over the Raven-II DH chain): exit 0 if every segment is proved clear of "
+        "the scene, 1 naming the first bad segment.")
+    check_path.add_argument("file", metavar="FILE", help="a `certiloop plan --json` output")
     return parser
 
 
@@ -234,6 +261,8 @@ def _main(argv: list[str] | None) -> int:
         return cmd_extract(args)
     if args.command == "campaign":
         return cmd_campaign(args)
+    if args.command in ("plan", "check-path"):
+        return cmd_plan_or_check(args)
     raise BadInput(f"unknown command {args.command}")  # pragma: no cover
 
 
@@ -627,7 +656,7 @@ def _campaign_search(args: argparse.Namespace, setup, kinds: tuple) -> int:
     given = [flag for flag, value in flags if value is not None]
     if given:
         raise BadInput(f"{', '.join(given)} does not apply to --search (one run per fault tried)")
-    examples = 200 if args.max_examples is None else args.max_examples
+    examples = 500 if args.max_examples is None else args.max_examples
     ticks = setup.ticks if args.ticks is None else args.ticks
     if not 1 <= examples <= 100_000:
         raise BadInput(f"--max-examples must be between 1 and 100,000, got {examples}")
@@ -675,6 +704,19 @@ def _campaign_executor(args: argparse.Namespace):
             yield pool
     else:
         yield None
+
+
+def cmd_plan_or_check(args: argparse.Namespace) -> int:
+    from certiloop.proofs.cli import plan_cmd, ui
+
+    try:
+        if args.command == "check-path":
+            return plan_cmd.cmd_check_path(args, console())
+        _check_outputs(("--json", args.json, "file or -"))
+        with ui.ModelProgress("planning", 1, not args.quiet) as progress:
+            return plan_cmd.cmd_plan(args, console(stderr=args.json == "-"), progress)
+    except plan_cmd.PlanInputError as exc:
+        raise BadInput(str(exc)) from None
 
 
 if __name__ == "__main__":  # pragma: no cover
