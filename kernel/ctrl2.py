@@ -24,18 +24,18 @@ def controller(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, r
     Every decision is the real-valued model's on these inputs, and k is <= its real
     value (rounded down): see certiloop.kernel.extract.certified."""
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-        k, enabled, ok = _filtered(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz)
+        *values, enabled, ok = _filtered(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz)  # k
     if np.all(ok):
-        return k, bool(np.all(enabled))
+        return *values, bool(np.all(enabled))
     # near-ties, or values the floats could not bound: decided exactly, in rationals
     if not _f.finite(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz):
         return np.nan, False  # not a real state
     if np.ndim(ok) == 0:  # a scalar test was uncertain: the whole step exactly
-        *values, enabled = _exact(_f.exact(px), _f.exact(py), _f.exact(pz), _f.exact(fxp), _f.exact(fyp), _f.exact(fzp), _f.exact(fx), _f.exact(fy), _f.exact(fz), _f.exact(D), _f.exact(e), _f.exact(G), _f.exact(np.asarray(rx, dtype=float)), _f.exact(np.asarray(nx, dtype=float)), _f.exact(np.asarray(ry, dtype=float)), _f.exact(np.asarray(ny, dtype=float)), _f.exact(np.asarray(rz, dtype=float)), _f.exact(np.asarray(nz, dtype=float)))
-        return *(_f.floor(v) for v in values), enabled
+        *exact, enabled = _exact(_f.exact(px), _f.exact(py), _f.exact(pz), _f.exact(fxp), _f.exact(fyp), _f.exact(fzp), _f.exact(fx), _f.exact(fy), _f.exact(fz), _f.exact(D), _f.exact(e), _f.exact(G), _f.exact(np.asarray(rx, dtype=float)), _f.exact(np.asarray(nx, dtype=float)), _f.exact(np.asarray(ry, dtype=float)), _f.exact(np.asarray(ny, dtype=float)), _f.exact(np.asarray(rz, dtype=float)), _f.exact(np.asarray(nz, dtype=float)))
+        return *(_f.floor(v) for v in exact), enabled
     rows = np.flatnonzero(np.logical_not(ok))  # only those rows: they are independent
-    k_x, enabled_x = _exact(_f.exact(px), _f.exact(py), _f.exact(pz), _f.exact(fxp), _f.exact(fyp), _f.exact(fzp), _f.exact(fx), _f.exact(fy), _f.exact(fz), _f.exact(D), _f.exact(e), _f.exact(G), _f.exact(np.asarray(rx, dtype=float)[rows]), _f.exact(np.asarray(nx, dtype=float)[rows]), _f.exact(np.asarray(ry, dtype=float)[rows]), _f.exact(np.asarray(ny, dtype=float)[rows]), _f.exact(np.asarray(rz, dtype=float)[rows]), _f.exact(np.asarray(nz, dtype=float)[rows]))
-    return min(k, _f.floor(k_x)), bool(np.all(np.where(ok, enabled, True))) and enabled_x
+    *exact, enabled_x = _exact(_f.exact(px), _f.exact(py), _f.exact(pz), _f.exact(fxp), _f.exact(fyp), _f.exact(fzp), _f.exact(fx), _f.exact(fy), _f.exact(fz), _f.exact(D), _f.exact(e), _f.exact(G), _f.exact(np.asarray(rx, dtype=float)[rows]), _f.exact(np.asarray(nx, dtype=float)[rows]), _f.exact(np.asarray(ry, dtype=float)[rows]), _f.exact(np.asarray(ny, dtype=float)[rows]), _f.exact(np.asarray(rz, dtype=float)[rows]), _f.exact(np.asarray(nz, dtype=float)[rows]))
+    return *(min(v, _f.floor(x)) for v, x in zip(values, exact)), bool(np.all(np.where(ok, enabled, True))) and enabled_x
 
 
 def _filtered(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz):

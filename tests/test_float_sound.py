@@ -197,9 +197,11 @@ def test_decisions_are_the_real_models_on_ordinary_inputs(scene):
 def test_the_oracle_can_fail():
     """The check is not vacuous: a gain above the model's, or a fallback where the model
     has a run, is caught."""
-    scene = ((0, 0, 0.0), (0, 0, -1.0), (0, 0, 0.0), [(0, 0, -0.05)], [(0, 0, 1.0)], 1.0, 1.0, 0.1)
+    # outside the slow zone (d0 = 0.05 >= D = 0.01), pushing in: k = d0/(G |fn| ε) = 0.5 exactly
+    # reaches the plane at the end of the period
+    scene = ((0, 0, 0.0), (0, 0, -1.0), (0, 0, 0.0), [(0, 0, -0.05)], [(0, 0, 1.0)], 1.0, 0.01, 0.1)
     want = exact_gain(*scene)
-    assert 0 < want < 1
+    assert abs(want - Fraction(1, 2)) < Fraction(1, 10**12)
     p, f, fp, points, normals, G, D, e = scene
     assert safe_for_step(float(want) * (1 - 1e-12), p, f, fp, points, normals, G, e)
     assert not safe_for_step(min(1.0, float(want) * 1.01), p, f, fp, points, normals, G, e)

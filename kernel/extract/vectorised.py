@@ -480,9 +480,9 @@ def _vectorised(theorem: Theorem, step: "_Step") -> str:
                 '    real outputs are rounded down: see certiloop.kernel.extract.certified."""\n')
     sorts = {v: _sort_of(theorem, v, REAL) for v in [*params, *families, *outputs]}
     src += "    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):\n"
-    src += f"        {', '.join(outputs)}, enabled, ok = _filtered({args})\n"
+    src += f"        *values, enabled, ok = _filtered({args})  # {', '.join(outputs)}\n"
     src += "    if np.all(ok):\n"
-    src += f"        return {', '.join(outputs)}, bool(np.all(enabled))\n"
+    src += "        return *values, bool(np.all(enabled))\n"
     src += "    # near-ties, or values the floats could not bound: decided exactly, in rationals\n"
     src += f"    if not {certified.HELPERS}.finite({args}):\n"
     src += f"        return {', '.join('np.nan' for _ in outputs)}, False  # not a real state\n"
@@ -498,17 +498,17 @@ def _vectorised(theorem: Theorem, step: "_Step") -> str:
         return ", ".join(out)
 
     floor = f"{certified.HELPERS}.floor"
+    whole = (f"    *exact, enabled = _exact({exact_args(None)})\n"
+             f"    return *({floor}(v) for v in exact), enabled\n")
     if _separable(step, outputs, reductions):
         src += "    if np.ndim(ok) == 0:  # a scalar test was uncertain: the whole step exactly\n"
-        src += f"        *values, enabled = _exact({exact_args(None)})\n"
-        src += f"        return *({floor}(v) for v in values), enabled\n"
+        src += "".join("    " + line + "\n" for line in whole.splitlines())
         src += "    rows = np.flatnonzero(np.logical_not(ok))  # only those rows: they are independent\n"
-        src += f"    {', '.join(o + '_x' for o in outputs)}, enabled_x = _exact({exact_args('rows')})\n"
-        mins = ", ".join(f"min({o}, {floor}({o}_x))" for o in outputs)
-        src += f"    return {mins}, bool(np.all(np.where(ok, enabled, True))) and enabled_x\n"
+        src += f"    *exact, enabled_x = _exact({exact_args('rows')})\n"
+        src += (f"    return *(min(v, {floor}(x)) for v, x in zip(values, exact)), "
+                "bool(np.all(np.where(ok, enabled, True))) and enabled_x\n")
     else:
-        src += f"    *values, enabled = _exact({exact_args(None)})\n"
-        src += f"    return *({floor}(v) for v in values), enabled\n"
+        src += whole
 
     body = _without_dead(em.lines, keep={*outputs, "enabled", "skipped", "_bad"})
     src += f"\n\ndef _filtered({args}):\n"
