@@ -94,11 +94,10 @@ def _filtered(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz
     t28 = (fnp > 0.0)
     t29 = (fn <= 0.0)
     t30 = (fnp != 0.0)
-    _v31, _v31_e = _f.mul(-1.0, None, fn, fn_e)
-    _v32, _v32_e = _f.div(_v31, _v31_e, fnp, fnp_e)
-    # xtr_ff3 = _v32 from xtr[i]*fnp[i] = (-1)*fn[i]
-    _v33, _v33_e = _f.div(e, None, 2.0, None)
-    _u34 = _f.uncertain(_v32, _v32_e, _v33, _v33_e)
+    _v31, _v31_e = _f.div((-fn), fn_e, fnp, fnp_e)
+    # xtr_ff3 = _v31 from xtr[i]*fnp[i] = (-1)*fn[i]
+    _v32, _v32_e = _f.div(e, None, 2.0, None)
+    _u33 = _f.uncertain(_v31, _v31_e, _v32, _v32_e)
     u_ff3 = 1.0  # from u[i]*1 = 1
     case_ff3 = t21  # ff3 slow, turns early
     case_ff3 = case_ff3 & t23
@@ -106,166 +105,165 @@ def _filtered(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz
     _bad = _bad | (case_ff3 & _u27)
     case_ff3 = case_ff3 & t29
     case_ff3 = case_ff3 & t30
-    _bad = _bad | (case_ff3 & _u34)
-    case_ff3 = case_ff3 & (_v32 <= _v33)
-    # xtr_ff4 = _v32 from xtr[i]*fnp[i] = (-1)*fn[i]
-    t35 = (D != 0.0)
-    _v36, _v36_e = _f.div(d0, d0_e, D, None)
-    # u_ff4 = _v36 from u[i]*D = d0[i]
+    _bad = _bad | (case_ff3 & _u33)
+    case_ff3 = case_ff3 & (_v31 <= _v32)
+    # xtr_ff4 = _v31 from xtr[i]*fnp[i] = (-1)*fn[i]
+    t34 = (D != 0.0)
+    _v35, _v35_e = _f.div(d0, d0_e, D, None)
+    # u_ff4 = _v35 from u[i]*D = d0[i]
     case_ff4 = t21  # ff4 slow, turns late
     case_ff4 = case_ff4 & t23
     case_ff4 = case_ff4 & t28
     case_ff4 = case_ff4 & t29
     case_ff4 = case_ff4 & t30
-    case_ff4 = case_ff4 & (_v32 >= _v33)
-    case_ff4 = case_ff4 & t35
-    t37 = (fnp == 0.0)
-    # u_ff5 = _v36 from u[i]*D = d0[i]
+    case_ff4 = case_ff4 & (_v31 >= _v32)
+    case_ff4 = case_ff4 & t34
+    t36 = (fnp == 0.0)
+    # u_ff5 = _v35 from u[i]*D = d0[i]
     case_ff5 = t21  # ff5 slow, fnp=0 fn<=0
     case_ff5 = case_ff5 & t23
-    case_ff5 = case_ff5 & t37
+    case_ff5 = case_ff5 & t36
     _bad = _bad | (case_ff5 & _u27)
     case_ff5 = case_ff5 & t29
-    case_ff5 = case_ff5 & t35
-    t38 = (fnp < 0.0)
-    # xtr_ff6 = _v32 from xtr[i]*fnp[i] = (-1)*fn[i]
-    # u_ff6 = _v36 from u[i]*D = d0[i]
+    case_ff5 = case_ff5 & t34
+    t37 = (fnp < 0.0)
+    # xtr_ff6 = _v31 from xtr[i]*fnp[i] = (-1)*fn[i]
+    # u_ff6 = _v35 from u[i]*D = d0[i]
     case_ff6 = t21  # ff6 slow, reverses early
     case_ff6 = case_ff6 & t23
-    case_ff6 = case_ff6 & t38
+    case_ff6 = case_ff6 & t37
     _bad = _bad | (case_ff6 & _u27)
     case_ff6 = case_ff6 & t26
     case_ff6 = case_ff6 & t30
-    _bad = _bad | (case_ff6 & _u34)
-    case_ff6 = case_ff6 & (_v32 <= _v33)
-    case_ff6 = case_ff6 & t35
-    # xtr_ff7 = _v32 from xtr[i]*fnp[i] = (-1)*fn[i]
+    _bad = _bad | (case_ff6 & _u33)
+    case_ff6 = case_ff6 & (_v31 <= _v32)
+    case_ff6 = case_ff6 & t34
+    # xtr_ff7 = _v31 from xtr[i]*fnp[i] = (-1)*fn[i]
     u_ff7 = 1.0  # from u[i]*1 = 1
     case_ff7 = t21  # ff7 slow, reverses late
     case_ff7 = case_ff7 & t23
-    case_ff7 = case_ff7 & t38
+    case_ff7 = case_ff7 & t37
     case_ff7 = case_ff7 & t26
     case_ff7 = case_ff7 & t30
-    case_ff7 = case_ff7 & (_v32 >= _v33)
+    case_ff7 = case_ff7 & (_v31 >= _v32)
     u_ff8 = 1.0  # from u[i]*1 = 1
     case_ff8 = t21  # ff8 slow, fnp=0 fn>=0
     case_ff8 = case_ff8 & t23
-    case_ff8 = case_ff8 & t37
+    case_ff8 = case_ff8 & t36
     case_ff8 = case_ff8 & t26
-    t39 = (fnp <= 0.0)
-    # u_ff9 = _v36 from u[i]*D = d0[i]
+    t38 = (fnp <= 0.0)
+    # u_ff9 = _v35 from u[i]*D = d0[i]
     case_ff9 = t21  # ff9 slow, fnp<=0 fn<=0
     case_ff9 = case_ff9 & t23
-    case_ff9 = case_ff9 & t39
+    case_ff9 = case_ff9 & t38
     _bad = _bad | (case_ff9 & _u27)
     case_ff9 = case_ff9 & t29
-    case_ff9 = case_ff9 & t35
-    t40 = (d0 <= 0.0)
+    case_ff9 = case_ff9 & t34
+    t39 = (d0 <= 0.0)
     u_ff10 = 0.0  # from u[i]*1 = 0
-    case_ff10 = t40  # ff10 stuck (d0 <= 0)
-    u = np.where(case_ff1, u_ff1, np.where(case_ff2, u_ff2, np.where(case_ff3, u_ff3, np.where(case_ff4, _v36, np.where(case_ff5, _v36, np.where(case_ff6, _v36, np.where(case_ff7, u_ff7, np.where(case_ff8, u_ff8, np.where(case_ff9, _v36, np.where(case_ff10, u_ff10, np.nan))))))))))
-    u_e = np.where(case_ff1, 0.0, np.where(case_ff2, 0.0, np.where(case_ff3, 0.0, np.where(case_ff4, _v36_e, np.where(case_ff5, _v36_e, np.where(case_ff6, _v36_e, np.where(case_ff7, 0.0, np.where(case_ff8, 0.0, np.where(case_ff9, _v36_e, np.where(case_ff10, 0.0, np.nan))))))))))
+    case_ff10 = t39  # ff10 stuck (d0 <= 0)
+    u = np.where(case_ff1, u_ff1, np.where(case_ff2, u_ff2, np.where(case_ff3, u_ff3, np.where(case_ff4, _v35, np.where(case_ff5, _v35, np.where(case_ff6, _v35, np.where(case_ff7, u_ff7, np.where(case_ff8, u_ff8, np.where(case_ff9, _v35, np.where(case_ff10, u_ff10, np.nan))))))))))
+    u_e = np.where(case_ff1, 0.0, np.where(case_ff2, 0.0, np.where(case_ff3, 0.0, np.where(case_ff4, _v35_e, np.where(case_ff5, _v35_e, np.where(case_ff6, _v35_e, np.where(case_ff7, 0.0, np.where(case_ff8, 0.0, np.where(case_ff9, _v35_e, np.where(case_ff10, 0.0, np.nan))))))))))
     enabled &= case_ff1 | case_ff2 | case_ff3 | case_ff4 | case_ff5 | case_ff6 | case_ff7 | case_ff8 | case_ff9 | case_ff10
-    _v41, _v41_e = _f.mul(fn, fn_e, e, None)
-    _v42, _v42_e = _f.mul(e, None, e, None)
-    _v43, _v43_e = _f.mul(fnp, fnp_e, _v42, _v42_e)
-    _v44, _v44_e = _f.mul(_v43, _v43_e, 0.5, None)
-    _v45, _v45_e = _f.add(_v41, _v41_e, _v44, _v44_e)
-    _v46, _v46_e = _f.mul(G, None, u, u_e)
-    _v47, _v47_e = _f.mul(_v46, _v46_e, _v45, _v45_e)
-    _v48, _v48_e = _f.add(d0, d0_e, _v47, _v47_e)
-    dist = _v48
-    dist_e = _v48_e
-    _v49, _v49_e = _f.mul(_v46, _v46_e, fn, fn_e)
-    _v50, _v50_e = _f.mul(_v49, _v49_e, _v49, _v49_e)
-    _v51, _v51_e = _f.mul(2.0, None, G, None)
-    _v52, _v52_e = _f.mul(_v51, _v51_e, u, u_e)
-    _v53, _v53_e = _f.mul(_v52, _v52_e, fnp, fnp_e)
-    _v54, _v54_e = _f.mul(_v53, _v53_e, d0, d0_e)
-    _v55, _v55_e = _f.add(_v50, _v50_e, (-_v54), _v54_e)
-    disc = _v55
-    disc_e = _v55_e
+    _v40, _v40_e = _f.mul(fn, fn_e, e, None)
+    _v41, _v41_e = _f.mul(e, None, e, None)
+    _v42, _v42_e = _f.mul(fnp, fnp_e, _v41, _v41_e)
+    _v43, _v43_e = _f.mul(_v42, _v42_e, 0.5, None)
+    _v44, _v44_e = _f.add(_v40, _v40_e, _v43, _v43_e)
+    _v45, _v45_e = _f.mul(G, None, u, u_e)
+    _v46, _v46_e = _f.mul(_v45, _v45_e, _v44, _v44_e)
+    _v47, _v47_e = _f.add(d0, d0_e, _v46, _v46_e)
+    dist = _v47
+    dist_e = _v47_e
+    _v48, _v48_e = _f.mul(_v45, _v45_e, fn, fn_e)
+    _v49, _v49_e = _f.mul(_v48, _v48_e, _v48, _v48_e)
+    _v50, _v50_e = _f.mul(2.0, None, G, None)
+    _v51, _v51_e = _f.mul(_v50, _v50_e, u, u_e)
+    _v52, _v52_e = _f.mul(_v51, _v51_e, fnp, fnp_e)
+    _v53, _v53_e = _f.mul(_v52, _v52_e, d0, d0_e)
+    _v54, _v54_e = _f.add(_v49, _v49_e, (-_v53), _v53_e)
+    disc = _v54
+    disc_e = _v54_e
     # choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away
-    t56 = (dist >= 0.0)
-    _u57 = _f.uncertain(dist, dist_e, 0.0, None)
-    t58 = (G != 0.0)
-    _v59, _v59_e = _f.div(1.0, None, G, None)
-    # tmp_sa = _v59 from tmp*G = 1
-    case_sa = t39  # sa fnp<=0, clear
+    t55 = (dist >= 0.0)
+    _u56 = _f.uncertain(dist, dist_e, 0.0, None)
+    t57 = (G != 0.0)
+    _v58, _v58_e = _f.div(1.0, None, G, None)
+    # tmp_sa = _v58 from tmp*G = 1
+    case_sa = t38  # sa fnp<=0, clear
     _bad = _bad | _u25
-    _bad = _bad | (case_sa & _u57)
-    case_sa = case_sa & t56
-    case_sa = case_sa & t58
-    t60 = (dist <= 0.0)
-    _v61, _v61_e = _f.mul(G, None, fn, fn_e)
-    _v62, _v62_e = _f.mul(_v61, _v61_e, e, None)
-    _v63, _v63_e = _f.mul(G, None, fnp, fnp_e)
-    _v64, _v64_e = _f.mul(_v63, _v63_e, _v42, _v42_e)
-    _v65, _v65_e = _f.div(_v64, _v64_e, 2.0, None)
-    _v66, _v66_e = _f.add(_v62, _v62_e, _v65, _v65_e)
-    t67 = (_v66 != 0.0)
-    _u68 = _f.uncertain(_v66, _v66_e, 0.0, None)
-    _v69, _v69_e = _f.div(1.0, None, _v66, _v66_e)
-    # tmp_se = _v69 from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
-    _v70, _v70_e = _f.mul(-1.0, None, d0, d0_e)
-    _v71, _v71_e = _f.mul(_v70, _v70_e, _v69, _v69_e)
-    case_se = t39  # se fnp<=0, would cross
-    case_se = case_se & t60
-    _bad = _bad | (case_se & _u68)
-    case_se = case_se & t67
-    t72 = (disc <= 0.0)
-    _u73 = _f.uncertain(disc, disc_e, 0.0, None)
-    # tmp_sb = _v59 from tmp*G = 1
+    _bad = _bad | (case_sa & _u56)
+    case_sa = case_sa & t55
+    case_sa = case_sa & t57
+    t59 = (dist <= 0.0)
+    _v60, _v60_e = _f.mul(G, None, fn, fn_e)
+    _v61, _v61_e = _f.mul(_v60, _v60_e, e, None)
+    _v62, _v62_e = _f.mul(G, None, fnp, fnp_e)
+    _v63, _v63_e = _f.mul(_v62, _v62_e, _v41, _v41_e)
+    _v64, _v64_e = _f.div(_v63, _v63_e, 2.0, None)
+    _v65, _v65_e = _f.add(_v61, _v61_e, _v64, _v64_e)
+    t66 = (_v65 != 0.0)
+    _u67 = _f.uncertain(_v65, _v65_e, 0.0, None)
+    _v68, _v68_e = _f.div(1.0, None, _v65, _v65_e)
+    # tmp_se = _v68 from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+    _v69, _v69_e = _f.mul((-d0), d0_e, _v68, _v68_e)
+    case_se = t38  # se fnp<=0, would cross
+    case_se = case_se & t59
+    _bad = _bad | (case_se & _u67)
+    case_se = case_se & t66
+    t70 = (disc <= 0.0)
+    _u71 = _f.uncertain(disc, disc_e, 0.0, None)
+    # tmp_sb = _v58 from tmp*G = 1
     case_sb = t24  # sb turns back, disc<=0
     _bad = _bad | (case_sb & _u27)
     case_sb = case_sb & t29
-    _bad = _bad | (case_sb & _u73)
-    case_sb = case_sb & t72
-    case_sb = case_sb & t58
-    t74 = (disc >= 0.0)
-    _v75, _v75_e = _f.mul(fnp, fnp_e, e, None)
-    _v76, _v76_e = _f.add(fn, fn_e, _v75, _v75_e)
-    t77 = (_v76 >= 0.0)
-    _u78 = _f.uncertain(_v76, _v76_e, 0.0, None)
-    _v79, _v79_e = _f.mul(fn, fn_e, fn, fn_e)
-    _v80, _v80_e = _f.mul(G, None, _v79, _v79_e)
-    t81 = (_v80 != 0.0)
-    _u82 = _f.uncertain(_v80, _v80_e, 0.0, None)
-    _v83, _v83_e = _f.div(1.0, None, _v80, _v80_e)
-    # tmp_sf = _v83 from tmp*G*fn[i]^2 = 1
-    _v84, _v84_e = _f.mul(2.0, None, fnp, fnp_e)
-    _v85, _v85_e = _f.mul(_v84, _v84_e, d0, d0_e)
-    _v86, _v86_e = _f.mul(_v85, _v85_e, _v83, _v83_e)
+    _bad = _bad | (case_sb & _u71)
+    case_sb = case_sb & t70
+    case_sb = case_sb & t57
+    t72 = (disc >= 0.0)
+    _v73, _v73_e = _f.mul(fnp, fnp_e, e, None)
+    _v74, _v74_e = _f.add(fn, fn_e, _v73, _v73_e)
+    t75 = (_v74 >= 0.0)
+    _u76 = _f.uncertain(_v74, _v74_e, 0.0, None)
+    _v77, _v77_e = _f.mul(fn, fn_e, fn, fn_e)
+    _v78, _v78_e = _f.mul(G, None, _v77, _v77_e)
+    t79 = (_v78 != 0.0)
+    _u80 = _f.uncertain(_v78, _v78_e, 0.0, None)
+    _v81, _v81_e = _f.div(1.0, None, _v78, _v78_e)
+    # tmp_sf = _v81 from tmp*G*fn[i]^2 = 1
+    _v82, _v82_e = _f.mul(2.0, None, fnp, fnp_e)
+    _v83, _v83_e = _f.mul(_v82, _v82_e, d0, d0_e)
+    _v84, _v84_e = _f.mul(_v83, _v83_e, _v81, _v81_e)
     case_sf = t24  # sf turns within step
     case_sf = case_sf & t29
-    case_sf = case_sf & t74
-    _bad = _bad | (case_sf & _u78)
-    case_sf = case_sf & t77
-    _bad = _bad | (case_sf & _u82)
-    case_sf = case_sf & t81
-    t87 = (_v76 <= 0.0)
-    # tmp_sg = _v69 from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+    case_sf = case_sf & t72
+    _bad = _bad | (case_sf & _u76)
+    case_sf = case_sf & t75
+    _bad = _bad | (case_sf & _u80)
+    case_sf = case_sf & t79
+    t85 = (_v74 <= 0.0)
+    # tmp_sg = _v68 from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
     case_sg = t24  # sg still inward, would cross
     case_sg = case_sg & t29
-    case_sg = case_sg & t74
-    case_sg = case_sg & t87
-    _bad = _bad | (case_sg & _u57)
-    case_sg = case_sg & t60
-    _bad = _bad | (case_sg & _u68)
-    case_sg = case_sg & t67
-    # tmp_sc = _v59 from tmp*G = 1
+    case_sg = case_sg & t72
+    case_sg = case_sg & t85
+    _bad = _bad | (case_sg & _u56)
+    case_sg = case_sg & t59
+    _bad = _bad | (case_sg & _u67)
+    case_sg = case_sg & t66
+    # tmp_sc = _v58 from tmp*G = 1
     case_sc = t24  # sc still inward, clear
     case_sc = case_sc & t29
-    case_sc = case_sc & t74
-    case_sc = case_sc & t87
-    case_sc = case_sc & t56
-    case_sc = case_sc & t58
-    # tmp_sd = _v59 from tmp*G = 1
+    case_sc = case_sc & t72
+    case_sc = case_sc & t85
+    case_sc = case_sc & t55
+    case_sc = case_sc & t57
+    # tmp_sd = _v58 from tmp*G = 1
     case_sd = t24  # sd away
     case_sd = case_sd & t26
-    case_sd = case_sd & t58
-    kt = np.where(case_sa, u, np.where(case_se, _v71, np.where(case_sb, u, np.where(case_sf, _v86, np.where(case_sg, _v71, np.where(case_sc, u, np.where(case_sd, u, np.nan)))))))
-    kt_e = np.where(case_sa, u_e, np.where(case_se, _v71_e, np.where(case_sb, u_e, np.where(case_sf, _v86_e, np.where(case_sg, _v71_e, np.where(case_sc, u_e, np.where(case_sd, u_e, np.nan)))))))
+    case_sd = case_sd & t57
+    kt = np.where(case_sa, u, np.where(case_se, _v69, np.where(case_sb, u, np.where(case_sf, _v84, np.where(case_sg, _v69, np.where(case_sc, u, np.where(case_sd, u, np.nan)))))))
+    kt_e = np.where(case_sa, u_e, np.where(case_se, _v69_e, np.where(case_sb, u_e, np.where(case_sf, _v84_e, np.where(case_sg, _v69_e, np.where(case_sc, u_e, np.where(case_sd, u_e, np.nan)))))))
     enabled &= case_sa | case_se | case_sb | case_sf | case_sg | case_sc | case_sd
     _bad = _bad | _f.loose(kt, kt_e)
     k = np.minimum(k, np.min(np.where(_bad, np.inf, _f.lower(kt, kt_e)), initial=np.inf))

@@ -18,6 +18,8 @@ import numpy as np
 
 from certiloop.kernel import ctrl2, monitor
 
+ROUNDING = 1e-12  # a negative k above -ROUNDING: a tool past a plane by rounding only
+
 
 @dataclass
 class Command:
@@ -102,6 +104,11 @@ class VirtualFixture:
         k, enabled = ctrl2.controller(*p, *fp, *f, self.buffer, self.period, self.gain,
                                       r[:, 0], n[:, 0], r[:, 1], n[:, 1], r[:, 2], n[:, 2])
         k = float(k)  # the real model's gain rounded down (ctrl2.py decides every case exactly)
+        if -ROUNDING <= k < 0:
+            # a tool past a plane by rounding (d0 = -1e-17, within the input check's tolerance)
+            # is outside the model's invariant, and its k = -d0·tmp is a tiny negative number:
+            # command 0 (a lower gain is always allowed; k = 0 stops the tool)
+            k = 0.0
         if not enabled:
             return self._fallback("the verified controller has no enabled case for this state", p)
         d0 = np.einsum("ij,ij->i", p - r, n)

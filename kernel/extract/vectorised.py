@@ -142,6 +142,11 @@ class _Emitter:
             args, op = [base] * n.payload, "*"
         else:
             args = [self.pair(x, subst) for x in n.args]
+        if op == "*":  # a factor of exactly ±1 changes nothing but the sign: no rounding, no bound
+            sign = [a for a in args if a[1] is None and a[0] in ("1.0", "-1.0")]
+            args = [a for a in args if a not in sign] or [("1.0", None)]
+            if sum(a[0] == "-1.0" for a in sign) % 2:
+                args[0] = (f"(-{args[0][0]})", args[0][1])
         acc = args[0]
         for b in args[1:]:
             acc = self._temporary(certified.operation(op, acc, b))
