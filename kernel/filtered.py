@@ -78,7 +78,7 @@ def mul(a, ea, b, eb):
 def div(a, ea, b, eb):
     """a / b: with |b| > eb, |x - a/b| <= (ea + |a/b| eb)/(|b| - eb), plus the rounding;
     infinite (never certain) where the divisor's sign is not certain."""
-    v = a / b
+    v = np.divide(a, b)  # inf or NaN for a zero divisor, never ZeroDivisionError
     # rounding (+ underflow), none for an exact 0 numerator (then v = 0 exactly, or b = 0: NaN)
     e = np.abs(v) * U + (np.where(a == 0, 0.0, ETA) if ea is None else ETA)
     if ea is None and eb is None:
