@@ -212,3 +212,39 @@ def test_the_oracle_can_fail():
             check(scene)
         finally:
             ctrl2.controller = original
+
+
+# ------------------------------------------------------------------ the error bounds themselves
+
+finite = st.one_of(magnitude, st.floats(allow_nan=False, allow_infinity=False))
+
+
+@st.composite
+def bounded(draw):
+    """(float v, its bound e or None, a real x with |v - x| <= e)."""
+    v = draw(finite)
+    if draw(st.booleans()):
+        return v, None, Fraction(v)
+    e = abs(draw(st.one_of(st.sampled_from([0.0, 5e-324, 1e-300]), st.floats(0, 1e10), finite)))
+    t = draw(st.fractions(-1, 1, max_denominator=1000))
+    return v, e, Fraction(v) + t * Fraction(e)
+
+
+@settings(max_examples=400, deadline=None)
+@given(bounded(), bounded(), st.sampled_from(["add", "sub", "mul", "div"]))
+def test_every_operation_bounds_its_error(a, b, op):
+    """|v - x| <= e·INFL for the real x of the operation on any reals within the operands'
+    bounds (the comparison rule's premise), including underflow, overflow (e = inf) and
+    zero divisors (never certain)."""
+    (va, ea, xa), (vb, eb, xb) = a, b
+    with np.errstate(all="ignore"):
+        v, e = getattr(filtered, op)(va, ea, vb, eb)
+    v, e = float(v), float(e)
+    if not (np.isfinite(v) and np.isfinite(e)):
+        assert not np.isfinite(e) or not np.isfinite(v)  # then no comparison on it is certain
+        assert bool(filtered.uncertain(v, e, 0.0, None))
+        return
+    if op == "div":
+        assert xb != 0  # a finite bound certifies the divisor's sign
+    x = {"add": xa + xb, "sub": xa - xb, "mul": xa * xb, "div": xa / xb if xb else None}[op]
+    assert abs(Fraction(v) - x) <= Fraction(e) * Fraction(filtered.INFL)
