@@ -43,6 +43,20 @@ HOW (the classic filtered exact predicate):
   is min(float rows, exact rows); otherwise the whole step is redone exactly. The exact
   path only runs on near-ties (a tool exactly on a plane with rounded inputs, a force
   exactly parallel to it, a subnormal component), never on a generic state.
+* Which uncertainties matter. A case guard is a conjunction, its conjuncts in the model's
+  order; a conjunct's uncertainty is flagged only on the rows where the conjuncts before it
+  hold in floats (the first conjunct that fails in floats is then flagged if it is
+  uncertain itself, so a row is unflagged only if its guard is certainly true or certainly
+  false). Every alternative of every choice is checked this way (also those after the one
+  taken: conservative). A test outside a choice is flagged everywhere. An output value is
+  flagged where its bound is not within TIGHT (`filtered.loose`).
+* The generated module: `controller` (the entry) calls `_filtered` (floats and bounds:
+  returns the outputs over the unflagged rows, enabled, and ok = not flagged) and, where
+  some row is flagged, `_exact` (the same statements on Fractions) for those rows only
+  when the step is row-separable (scalar set-up, then foreach loops over every member whose
+  min-reductions are the outputs: ctrl2, ctrl2_2d), else for the whole step (ctrl2_dynamic).
+  The cost: the exact path is ~0.1-0.5 ms a row, and a tool exactly on a plane (d0 = 0 to
+  the bit) is such a row (the bound of a product of an inexact-but-zero factor is not 0).
 * Float-total follows from 2: the code reports no run only where the real model has none.
   Float-sound follows from 2 and 3: every decision is the model's, every output is one the
   model allows (a smaller gain than its own).
