@@ -75,14 +75,14 @@ def check_command(k: float, d0, fn, fnp, gain: float, period: float) -> Verdict:
     if not len(d0):
         return OK
     e = period
-    tol = RELATIVE_TOLERANCE * (1 + np.abs(d0) + gain * np.abs(fn) * e + gain * np.abs(fnp) * e * e)
-    at_end = d0 + gain * k * (fn * e + fnp * e * e / 2)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        tol = RELATIVE_TOLERANCE * (1 + np.abs(d0) + gain * np.abs(fn) * e + gain * np.abs(fnp) * e * e)
+        at_end = d0 + gain * k * (fn * e + fnp * e * e / 2)
         vertex_t = np.where(fnp > 0, -fn / fnp, -1.0)
         inside = (vertex_t > 0) & (vertex_t < e)
         at_vertex = np.where(inside, d0 + gain * k * (fn * vertex_t + fnp * vertex_t**2 / 2), np.inf)
-    worst = np.minimum(np.minimum(d0, at_end), at_vertex)
-    bad = np.flatnonzero(worst < -tol)
+        worst = np.minimum(np.minimum(d0, at_end), at_vertex)
+        bad = np.flatnonzero(~(worst >= -tol))  # NaN (an overflow met 0 or inf) is not shown safe
     if bad.size:
         b = int(bad[0])
         return Verdict(False, f"k = {k:.6g} lets the tool reach distance {worst[b]:.6g} from boundary {b} "
