@@ -62,8 +62,8 @@ def controller(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, r
         case_ff10 = t11  # ff10 stuck (d0 <= 0)
         u = np.where(case_ff1, u_ff1, np.where(case_ff2, u_ff2, np.where(case_ff3, u_ff3, np.where(case_ff4, u_ff4, np.where(case_ff5, u_ff5, np.where(case_ff6, u_ff6, np.where(case_ff7, u_ff7, np.where(case_ff8, u_ff8, np.where(case_ff9, u_ff9, np.where(case_ff10, u_ff10, np.nan))))))))))
         enabled &= case_ff1 | case_ff2 | case_ff3 | case_ff4 | case_ff5 | case_ff6 | case_ff7 | case_ff8 | case_ff9 | case_ff10
-        dist = (d0 + (G * u * ((fn * e) + (fnp * (e ** 2) * 0.5))))
-        disc = (((G * u * fn) ** 2) + (-(2.0 * G * u * fnp * d0)))
+        dist = (d0 + (G * u * ((fn * e) + (fnp * (e * e) * 0.5))))
+        disc = (((G * u * fn) * (G * u * fn)) + (-(2.0 * G * u * fnp * d0)))
         t12 = (dist >= 0.0)
         t13 = (dist <= 0.0)
         t14 = (disc <= 0.0)
@@ -72,13 +72,13 @@ def controller(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, r
         t17 = ((fn + (fnp * e)) <= 0.0)
         # choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away
         case_sa = t10 & t12 & (G != 0)  # sa fnp<=0, clear
-        tmp_se = (1.0 / ((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
-        case_se = t10 & t13 & (((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)) != 0)  # se fnp<=0, would cross
+        tmp_se = (1.0 / ((G * fn * e) + ((G * fnp * (e * e)) / 2.0)))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+        case_se = t10 & t13 & (((G * fn * e) + ((G * fnp * (e * e)) / 2.0)) != 0)  # se fnp<=0, would cross
         case_sb = t4 & t7 & t14 & (G != 0)  # sb turns back, disc<=0
-        tmp_sf = (1.0 / (G * (fn ** 2)))  # from tmp*G*fn[i]^2 = 1
-        case_sf = t4 & t7 & t15 & t16 & ((G * (fn ** 2)) != 0)  # sf turns within step
-        tmp_sg = (1.0 / ((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
-        case_sg = t4 & t7 & t15 & t17 & t13 & (((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)) != 0)  # sg still inward, would cross
+        tmp_sf = (1.0 / (G * (fn * fn)))  # from tmp*G*fn[i]^2 = 1
+        case_sf = t4 & t7 & t15 & t16 & ((G * (fn * fn)) != 0)  # sf turns within step
+        tmp_sg = (1.0 / ((G * fn * e) + ((G * fnp * (e * e)) / 2.0)))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+        case_sg = t4 & t7 & t15 & t17 & t13 & (((G * fn * e) + ((G * fnp * (e * e)) / 2.0)) != 0)  # sg still inward, would cross
         case_sc = t4 & t7 & t15 & t17 & t12 & (G != 0)  # sc still inward, clear
         case_sd = t4 & t5 & (G != 0)  # sd away
         kt = np.where(case_sa, u, np.where(case_se, (-1.0 * d0 * tmp_se), np.where(case_sb, u, np.where(case_sf, (2.0 * fnp * d0 * tmp_sf), np.where(case_sg, (-1.0 * d0 * tmp_sg), np.where(case_sc, u, np.where(case_sd, u, np.nan)))))))

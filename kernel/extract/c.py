@@ -1,0 +1,131 @@
+"""`extract_c(theorem)`: the model's control step as C99 — a source `<name>.c` and a header
+`<name>.h` (name: the model's name with dots as underscores, `sbs_ctrl2`).
+
+The entry function has the Python kernel's semantics (see the package docstring):
+
+    int sbs_ctrl2_controller(double px, ..., const double *rx, ..., size_t n_B, double *out_k);
+
+scalar inputs in the Python order (INPUTS), then the families (FAMILIES) as pointers, then one
+length per index sort (`n_B`: every family over B has that many elements), then one pointer
+per output. It returns 1 (enabled) and writes the outputs, or returns 0 where the model has
+no run (no enabled alternative, a failed test, an output that overflowed to inf/NaN) and
+writes NaN to every scalar output: the caller must fall back. No allocation, no globals,
+libm only; the header pins the model's content hash (`SBS_CTRL2_MODEL_HASH`).
+
+Conformance: every decision (which alternative, enabled) is the Python kernel's bit for bit,
+because both evaluate the same expression trees with the same IEEE double operations (compile
+with `-ffp-contract=off`, see c_syntax.CFLAGS). Outputs are equal bit for bit too, except
+that a zero may differ in sign (min over ±0)."""
+
+from __future__ import annotations
+
+from certiloop.kernel.extract.analysis import _split, _uses_families
+from certiloop.kernel.extract.c_syntax import (
+    CFLAGS,
+    HEADER_H,
+    c_comment,
+    c_element_type,
+    c_name,
+    c_type,
+    check_c_names,
+    without_dead,
+)
+from certiloop.kernel.extract.errors import ExtractError
+from certiloop.kernel.extract.template import SCALAR, VECTORISED
+from certiloop.models.lang.terms import REAL, ModelError
+from certiloop.models.lang.theorem import Theorem
+
+
+def extract_c(theorem: Theorem) -> dict[str, str]:
+    """{file name: text} of the C kernel: `<name>.h` and `<name>.c`. Raises ExtractError,
+    with a one-line reason naming the model, for a shape it cannot write in C."""
+    try:
+        return _extract_c(theorem)
+    except ModelError as exc:
+        message = " ".join(str(exc).split())
+        if not message.startswith(f"{theorem.name}:"):
+            message = f"{theorem.name}: {message}"
+        raise ExtractError(message) from None
+
+
+def _extract_c(theorem: Theorem) -> dict[str, str]:
+    step = _split(theorem)
+    base = c_name(theorem.name)
+    sizes: list[str] = []
+    families: dict = {}
+    tail: list[str] = []
+    if _uses_families(step.parts):
+        if step.where in ("modes", "algorithm"):
+            raise ExtractError("a family of boundaries in a switched plant or an algorithm is not vectorised")
+        from certiloop.kernel.extract.c_family import c_family, pinned_output
+
+        lines, params, families, outputs, em = c_family(theorem, step)
+        for v, sort in outputs:
+            if sort.is_array:
+                tail += pinned_output(em, v, sort)
+        sizes = list(dict.fromkeys(em.sizes.values()))
+        decls, blocks, how = [], em.blocks, VECTORISED
+    else:
+        from certiloop.kernel.extract.c_scalar import c_scalar
+
+        lines, params, outputs, decls, blocks = c_scalar(theorem, step)
+        how = SCALAR[step.where]
+    names = [*params, *families, *(v for v, _ in outputs)]
+    check_c_names(theorem.name, names + [f"out_{v}" for v, _ in outputs] + sizes)
+    signature = [f"{c_type(s)} {v}" for v, s in params.items()]
+    signature += [f"const {c_element_type(s.range)} *{v}" for v, s in families.items()]
+    signature += [f"size_t {n}" for n in sizes]
+    signature += [f"{c_element_type(s.range) if s.is_array else c_type(s)} *out_{v}" for v, s in outputs]
+    finite = [v for v, s in outputs if s == REAL]
+    body = [f"int {base}_controller({', '.join(signature)})", "{"]
+    body += ["    " + d for d in decls]
+    body += without_dead(lines, keep={v for v, _ in outputs} | set(params))
+    if finite:
+        body.append("    " + c_comment("floating-point overflow is no run the proof covers"))
+        body.append(f"    if (!({' && '.join(f'isfinite({v})' for v in finite)})) goto blocked;")
+    body += ["    " + t for t in tail]
+    body += [f"    *out_{v} = {v};" for v, s in outputs if not s.is_array]
+    body.append("    return 1;")
+    if finite or blocks:
+        body.append("blocked:")
+        body += [f"    *out_{v} = {'NAN' if s == REAL else '0'};" for v, s in outputs if not s.is_array]
+        body.append("    return 0;")
+    body.append("}")
+    what = "algorithm" if step.where == "algorithm" else "discrete controller"
+    doc = _doc(outputs, families, sizes)
+    header = HEADER_H.format(
+        model=theorem.name, what=what, description=theorem.description,
+        how=how.replace("Python", "C").replace("numpy", "C").replace("\n", "\n   "),
+        flags=" ".join(CFLAGS), base=base, upper=base.upper(), hash=theorem.content_hash,
+        inputs=" ".join(params), families=" ".join(families), outputs=" ".join(v for v, _ in outputs),
+        doc=doc, params=", ".join(signature))
+    source = (f"/* Generated by `certiloop extract {theorem.name} --lang c` -- do not edit; re-extract "
+              f"instead.\n   Model {theorem.name}, content hash {theorem.content_hash}; see {base}.h. */\n"
+              f"#include <math.h>\n\n#include \"{base}.h\"\n\n" + "\n".join(body) + "\n")
+    return {f"{base}.h": header, f"{base}.c": source}
+
+
+def _doc(outputs, families, sizes) -> str:
+    outs = ", ".join(f"*out_{v}" for v, _ in outputs)
+    text = (f"/* Writes {outs} -- the values the verified model computes for this state (where several "
+            "alternatives of a choice are enabled, the first in the model's order) -- and returns 1; "
+            "returns 0 where the model has no run (no enabled alternative, a failed test, or an output "
+            "that overflowed): scalar outputs are then NaN and the caller must fall back.")
+    if families:
+        text += (f" Families are arrays of {' / '.join(sizes)} elements (Bool families: one byte each, "
+                 "non-zero = true).")
+    if any(s.is_array for _, s in outputs):
+        text += " Output families are written only when the function returns 1."
+    words, rows, row = text.split(), [], ""
+    for w in words:
+        if row and len(row) + 1 + len(w) > 92:
+            rows.append(row)
+            row = w
+        else:
+            row = f"{row} {w}" if row else w
+    rows.append(row)
+    return "\n   ".join(rows) + " */"
+
+
+def c_flags() -> list[str]:
+    return list(CFLAGS)
