@@ -50,7 +50,7 @@ def build(files: dict[str, str], folder: Path, extra: list[str] = ()) -> Path:
 
 
 _CTYPES = {"double": ctypes.c_double, "long long": ctypes.c_longlong, "int": ctypes.c_int}
-_DTYPES = {"double": np.float64, "long long": np.int64, "unsigned char": np.uint8}
+_DTYPES = {"double": np.float64, "long long": np.int64, "int": np.intc, "unsigned char": np.uint8}
 
 
 class Kernel:
@@ -61,10 +61,13 @@ class Kernel:
         if m is None:
             raise BuildError("no controller prototype in the header")
         self.base = m.group(1)
+        self.library = library
         self.params = [_param(p) for p in m.group(2).split(", ")]
         self.lib = ctypes.CDLL(str(library))
         self.fn = getattr(self.lib, f"{self.base}_controller")
         self.fn.restype = ctypes.c_int
+        self.fn.argtypes = [_CTYPES[c] if kind == "scalar" else ctypes.c_size_t if kind == "size"
+                            else ctypes.c_void_p for kind, c, _ in self.params]
         upper = self.base.upper()
         macros = dict(re.findall(r'^#define (\w+) "([^"]*)"', header, re.MULTILINE))
         self.model, self.model_hash = macros[f"{upper}_MODEL"], macros[f"{upper}_MODEL_HASH"]
@@ -81,26 +84,22 @@ class Kernel:
         call, keep, outs = [], [], []
         for kind, ctype, name in self.params:
             if kind == "scalar":
-                call.append(_CTYPES[ctype](given[name]))
+                call.append(given[name])
             elif kind == "family":
                 a = np.ascontiguousarray(given[name], dtype=_DTYPES[ctype])
                 if a.shape != (length,):
                     raise ValueError(f"family {name} has shape {a.shape}, expected ({length},)")
                 keep.append(a)
-                call.append(a.ctypes.data_as(ctypes.POINTER(np.ctypeslib.as_ctypes_type(a.dtype))))
+                call.append(a.ctypes.data)
             elif kind == "size":
-                call.append(ctypes.c_size_t(length))
-            elif ctype in _CTYPES and name.startswith("out_") and kind == "out":
-                box = _CTYPES[ctype]()
-                outs.append(("scalar", box))
-                call.append(ctypes.byref(box))
-            else:  # an output family
-                a = np.zeros(length, dtype=_DTYPES[ctype])
-                outs.append(("family", a))
-                call.append(a.ctypes.data_as(ctypes.POINTER(np.ctypeslib.as_ctypes_type(a.dtype))))
+                call.append(length)
+            else:  # an output: a one-element array for a scalar, else a whole family
+                a = np.zeros(1 if ctype in _CTYPES else length, dtype=_DTYPES.get(ctype, np.int32))
+                outs.append((ctype in _CTYPES, a))
+                call.append(a.ctypes.data)
         enabled = bool(self.fn(*call))
-        values = [box.value if kind == "scalar" else box.astype(bool) if box.dtype == np.uint8 else box
-                  for kind, box in outs]
+        values = [a[0].item() if scalar else a.astype(bool) if a.dtype == np.uint8 else a
+                  for scalar, a in outs]
         return (*values, enabled)
 
 

@@ -14,10 +14,9 @@ the alternative reads them, guarded by their divisor being non-zero, as in the P
 from __future__ import annotations
 
 from certiloop.kernel.extract.analysis import _conjuncts, _is_index_sort, _mentions, _outputs, _sort_of, _Step
-from certiloop.kernel.extract.c_syntax import c_comment, c_const, c_element_type, c_op, c_type
+from certiloop.kernel.extract.c_syntax import c_comment, c_const, c_op, c_type
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _solve
-from certiloop.kernel.extract.template import _tag
 from certiloop.kernel.extract.vectorised import _family_pin, _min_update, _scalars_written, _target_name
 from certiloop.models.lang.programs import Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import BOOL, REAL, Node, free_vars
@@ -232,7 +231,8 @@ class _CFamily:
             if red is not None:
                 var, value = red
                 if var not in outer:
-                    raise _refuse(s, f"`{var}` is folded over the boundaries but has no value before the loop")
+                    raise _refuse(s, f"`{var}` is folded over the boundaries but has no value before the "
+                                  "loop")
                 v = self.code(value)
                 self.line(c_comment(f"{var} := min({var}, {_brief(value, 40)}), keeping a NaN as np.minimum"))
                 self.line(f"if (isnan({v}) || {v} < {var}) {var} = {v};")
