@@ -299,3 +299,84 @@ def test_cli_lang_c_needs_a_folder():
                            "c"], capture_output=True, text=True)
     assert done.returncode == 2 and "give the folder with -o DIR" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
+
+
+# ------------------------------------------------------------------ the shipped C fixture (monitor + fallback)
+
+KERNEL_C = __import__("pathlib").Path(__file__).resolve().parent.parent / "kernel" / "c"
+
+
+def test_shipped_c_kernel_is_a_fresh_extraction():
+    from certiloop.kernel.extract.shipped import shipped_c_drift
+
+    assert shipped_c_drift("sbs.ctrl2") == ""
+
+
+class _Memory(__import__("ctypes").Structure):
+    import ctypes as _c
+
+    _fields_ = [("has_previous", _c.c_int), ("p", _c.c_double * 3), ("f", _c.c_double * 3),
+                ("fp", _c.c_double * 3), ("k", _c.c_double)]
+
+
+@pytest.fixture(scope="module")
+def c_fixture(folder):
+    import ctypes
+
+    from certiloop.kernel.extract.c_build import compiler as cc
+    from certiloop.kernel.extract.c_syntax import CFLAGS
+
+    out = folder / "fixture" / "libfixture.so"
+    out.parent.mkdir()
+    done = subprocess.run([cc(), *CFLAGS, "-fPIC", "-shared", str(KERNEL_C / "sbs_ctrl2.c"),
+                           str(KERNEL_C / "sbs_ctrl2_fixture.c"), "-o", str(out), "-lm"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0 and not done.stderr, done.stderr
+    lib = ctypes.CDLL(str(out))
+    fn = lib.sbs_ctrl2_fixture_step
+    fn.restype = ctypes.c_int
+    fn.argtypes = [ctypes.c_void_p] * 9 + [ctypes.c_size_t] + [ctypes.c_double] * 5 + [ctypes.c_void_p] * 2
+    return fn
+
+
+REASONS = {1: "is not finite", 2: "must be finite and positive", 3: "non-finite point or normal",
+           4: "has a normal of length", 5: "already past boundary", 6: "away from the model's prediction",
+           7: "no enabled case", 8: "lets the tool reach"}
+
+
+def test_c_fixture_step_same_as_the_python_fixture(c_fixture):
+    """Sequences of steps through the C monitor and the Python one: the same fallbacks (with
+    the same reason) and, where the command passes, the same gain bit for bit."""
+    import ctypes
+
+    from certiloop.kernel import VirtualFixture
+
+    rng = np.random.default_rng(5)
+    passed = fell_back = 0
+    for _ in range(300):
+        p, f, fp, points, normals, G, D, e = _ctrl2_scene(rng)
+        py = VirtualFixture(list(zip(points, normals)), gain=G, buffer=D, period=e, check_model=False,
+                            position_tolerance=1e-6)
+        r, n = py._points, py._normals  # as the fixture keeps them (unit, noise removed)
+        cols = [np.ascontiguousarray(a) for a in (r[:, 0], r[:, 1], r[:, 2], n[:, 0], n[:, 1], n[:, 2])]
+        memory, k = _Memory(), ctypes.c_double()
+        for step in range(3):
+            if step and rng.random() < 0.2:
+                p = p + rng.normal(scale=1e-3, size=3)  # off the model's prediction
+            if rng.random() < 0.05:
+                f = np.array([np.nan, 0.0, 0.0])
+            args = [np.ascontiguousarray(x, dtype=float) for x in (p, f, fp)]
+            reason = c_fixture(*[a.ctypes.data for a in args], *[c.ctypes.data for c in cols], len(r), G, D, e,
+                               e, 1e-6, ctypes.addressof(memory), ctypes.addressof(k))
+            want = py.step(p, f, fp)
+            assert (reason == 0) == want.ok, (reason, want.reason)
+            if want.ok:
+                assert same(k.value, want.k)
+                passed += 1
+                kx = want.k  # the tool moves as the model says
+                p = p + G * kx * (f * e + fp * e * e / 2)
+            else:
+                assert REASONS[reason] in want.reason, (reason, want.reason)
+                assert k.value == 0.0
+                fell_back += 1
+    assert passed > 300 and fell_back > 20
