@@ -106,8 +106,8 @@ def measure(m: int, rng, calls: int, batches: int, cc: str, work: Path) -> dict:
     (folder / "planes.h").write_text(planes_header(m, rng))
     (folder / "driver.c").write_text(DRIVER)
     sources = [str(KERNEL_C / "sbs_ctrl2.c"), str(KERNEL_C / "sbs_ctrl2_fixture.c"), "driver.c"]
-    subprocess.run([cc, *[f for f in CFLAGS if f != "-pedantic"], "-I", str(KERNEL_C), *sources, "-o", "bench",
-                    "-lm"], cwd=folder, check=True)
+    flags = [f for f in CFLAGS if f != "-pedantic"]
+    subprocess.run([cc, *flags, "-I", str(KERNEL_C), *sources, "-o", "bench", "-lm"], cwd=folder, check=True)
     out = subprocess.run([str(folder / "bench"), str(calls), str(batches)], capture_output=True, text=True,
                          check=True).stdout.split()
     step_us, bare_us = float(out[0]) / 1000, float(out[1]) / 1000

@@ -301,7 +301,7 @@ def test_cli_lang_c_needs_a_folder():
     assert len(done.stderr.strip().splitlines()) == 1
 
 
-# ------------------------------------------------------------------ the shipped C fixture (monitor + fallback)
+# ------------------------------------------------------------------ the C fixture (monitor + fallback)
 
 KERNEL_C = __import__("pathlib").Path(__file__).resolve().parent.parent / "kernel" / "c"
 
@@ -366,8 +366,9 @@ def test_c_fixture_step_same_as_the_python_fixture(c_fixture):
             if rng.random() < 0.05:
                 f = np.array([np.nan, 0.0, 0.0])
             args = [np.ascontiguousarray(x, dtype=float) for x in (p, f, fp)]
-            reason = c_fixture(*[a.ctypes.data for a in args], *[c.ctypes.data for c in cols], len(r), G, D, e,
-                               e, 1e-6, ctypes.addressof(memory), ctypes.addressof(k))
+            pointers = [a.ctypes.data for a in args] + [c.ctypes.data for c in cols]
+            reason = c_fixture(*pointers, len(r), G, D, e, e, 1e-6, ctypes.addressof(memory),
+                               ctypes.addressof(k))
             want = py.step(p, f, fp)
             assert (reason == 0) == want.ok, (reason, want.reason)
             if want.ok:
