@@ -4,67 +4,278 @@
 
 #include "sbs_ctrl2.h"
 
-int sbs_ctrl2_controller(double px, double py, double pz, double fxp, double fyp, double fzp, double fx, double fy, double fz, double D, double e, double G, const double *rx, const double *nx, const double *ry, const double *ny, const double *rz, const double *nz, size_t n_B, double *out_k)
+/* ---- certified arithmetic: a value v with a bound e on |v - x| for its real value x
+   (certiloop.kernel.extract.c_certified; the C counterpart of certiloop.kernel.filtered) ---- */
+typedef struct { double v, e; int exact; } cl_real;
+
+#if defined(__GNUC__)
+#define CL_INLINE static inline __attribute__((always_inline)) /* a call per operation is 20x slower */
+#define CL_SLOW static __attribute__((noinline, unused)) /* the careful pass: one copy, out of line */
+#else
+#define CL_INLINE static inline
+#define CL_SLOW static inline
+#endif
+
+#define CL_U 0x1p-52                  /* filtered.U */
+#define CL_ETA 0x1p-1072              /* filtered.ETA */
+#define CL_INFL (1.0 + 0x1p-40)       /* filtered.INFL */
+#define CL_TIGHT 0x1p-20              /* filtered.TIGHT */
+#define CL_EFT_MIN 0x1p-900           /* above this, a rounding residual is representable */
+/* a decision the floats cannot take: run the careful pass, else give up (return -1) */
+#define CL_UNSURE do { if (!careful) return -2; goto undecided; } while (0)
+#define CL_TEST(c) do { int cl_c = (c); if (cl_c < 0) CL_UNSURE; if (!cl_c) goto blocked; } while (0)
+
+CL_INLINE cl_real cl_exact(double x) { cl_real r; r.v = x; r.e = 0.0; r.exact = 1; return r; }
+
+CL_INLINE cl_real cl_approx(double v, double e, int careful)
 {
-    double k = 1.0;
-    for (size_t i = 0; i < n_B; i++) { /* boundary loop */
-        double u = 1.0;
-        double d0 = (((px + (-rx[i])) * nx[i]) + ((py + (-ry[i])) * ny[i]) + ((pz + (-rz[i])) * nz[i]));
-        double fnp = ((fxp * nx[i]) + (fyp * ny[i]) + (fzp * nz[i]));
-        double fn = ((fx * nx[i]) + (fy * ny[i]) + (fz * nz[i]));
-        /* choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0) */
-        if ((d0 >= D)) { /* ff1 free (d0 >= D) */
-            u = 1.0;
-        } else if ((d0 >= 0.0) && (d0 <= D) && (fnp >= 0.0) && (fn >= 0.0)) { /* ff2 slow, fnp>=0 fn>=0 */
-            u = 1.0;
-        } else if ((d0 >= 0.0) && (d0 <= D) && (fnp > 0.0) && (fn <= 0.0) && (fnp != 0) && (((-1.0 * fn) / fnp) <= (e / 2.0))) { /* ff3 slow, turns early */
-            u = 1.0;
-        } else if ((d0 >= 0.0) && (d0 <= D) && (fnp > 0.0) && (fn <= 0.0) && (fnp != 0) && (((-1.0 * fn) / fnp) >= (e / 2.0)) && (D != 0)) { /* ff4 slow, turns late */
-            u = (d0 / D);
-        } else if ((d0 >= 0.0) && (d0 <= D) && (fnp == 0.0) && (fn <= 0.0) && (D != 0)) { /* ff5 slow, fnp=0 fn<=0 */
-            u = (d0 / D);
-        } else if ((d0 >= 0.0) && (d0 <= D) && (fnp < 0.0) && (fn >= 0.0) && (fnp != 0) && (((-1.0 * fn) / fnp) <= (e / 2.0)) && (D != 0)) { /* ff6 slow, reverses early */
-            u = (d0 / D);
-        } else if ((d0 >= 0.0) && (d0 <= D) && (fnp < 0.0) && (fn >= 0.0) && (fnp != 0) && (((-1.0 * fn) / fnp) >= (e / 2.0))) { /* ff7 slow, reverses late */
-            u = 1.0;
-        } else if ((d0 >= 0.0) && (d0 <= D) && (fnp == 0.0) && (fn >= 0.0)) { /* ff8 slow, fnp=0 fn>=0 */
-            u = 1.0;
-        } else if ((d0 >= 0.0) && (d0 <= D) && (fnp <= 0.0) && (fn <= 0.0) && (D != 0)) { /* ff9 slow, fnp<=0 fn<=0 */
-            u = (d0 / D);
-        } else if ((d0 <= 0.0)) { /* ff10 stuck (d0 <= 0) */
-            u = 0.0;
-        } else { /* no alternative is enabled: the model has no run */
-            goto blocked;
-        }
-        double dist = (d0 + (G * u * ((fn * e) + (fnp * (e * e) * 0.5))));
-        double disc = (((G * u * fn) * (G * u * fn)) + (-(2.0 * G * u * fnp * d0)));
-        /* choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away */
-        double kt = NAN;
-        if ((fnp <= 0.0) && (dist >= 0.0) && (G != 0)) { /* sa fnp<=0, clear */
-            kt = u;
-        } else if ((fnp <= 0.0) && (dist <= 0.0) && (((G * fn * e) + ((G * fnp * (e * e)) / 2.0)) != 0)) { /* se fnp<=0, would cross */
-            kt = (-1.0 * d0 * (1.0 / ((G * fn * e) + ((G * fnp * (e * e)) / 2.0))));
-        } else if ((fnp >= 0.0) && (fn <= 0.0) && (disc <= 0.0) && (G != 0)) { /* sb turns back, disc<=0 */
-            kt = u;
-        } else if ((fnp >= 0.0) && (fn <= 0.0) && (disc >= 0.0) && ((fn + (fnp * e)) >= 0.0) && ((G * (fn * fn)) != 0)) { /* sf turns within step */
-            kt = (2.0 * fnp * d0 * (1.0 / (G * (fn * fn))));
-        } else if ((fnp >= 0.0) && (fn <= 0.0) && (disc >= 0.0) && ((fn + (fnp * e)) <= 0.0) && (dist <= 0.0) && (((G * fn * e) + ((G * fnp * (e * e)) / 2.0)) != 0)) { /* sg still inward, would cross */
-            kt = (-1.0 * d0 * (1.0 / ((G * fn * e) + ((G * fnp * (e * e)) / 2.0))));
-        } else if ((fnp >= 0.0) && (fn <= 0.0) && (disc >= 0.0) && ((fn + (fnp * e)) <= 0.0) && (dist >= 0.0) && (G != 0)) { /* sc still inward, clear */
-            kt = u;
-        } else if ((fnp >= 0.0) && (fn >= 0.0) && (G != 0)) { /* sd away */
-            kt = u;
-        } else { /* no alternative is enabled: the model has no run */
-            goto blocked;
-        }
-        /* k := min(k, kt), keeping a NaN as np.minimum */
-        if (isnan(kt) || kt < k) k = kt;
+    cl_real r;
+    if (careful && e == 0.0 && isfinite(v))
+        return cl_exact(v); /* |v - x| <= 0: exact. The filter keeps it inexact, as filtered.py does,
+                               so that its exactness flags are known when the code is compiled */
+    r.v = v; r.e = e; r.exact = 0;
+    return r;
+}
+
+CL_INLINE cl_real cl_add_body(cl_real a, cl_real b, int careful)
+{
+    double v = a.v + b.v, e;
+    if (careful && a.exact && b.exact && isfinite(v)) { /* TwoSum: the exact rounding error */
+        double bb = v - a.v;
+        return cl_approx(v, fabs((a.v - (v - bb)) + (b.v - bb)), careful);
     }
-    /* floating-point overflow is no run the proof covers */
-    if (!(isfinite(k))) goto blocked;
-    *out_k = k;
+    e = fabs(v) * CL_U;
+    if (!a.exact) e = e + a.e;
+    if (!b.exact) e = e + b.e;
+    return cl_approx(v, e, careful);
+}
+CL_SLOW cl_real cl_add_careful(cl_real a, cl_real b) { return cl_add_body(a, b, 1); }
+CL_INLINE cl_real cl_add(cl_real a, cl_real b, int careful)
+{
+    return careful ? cl_add_careful(a, b) : cl_add_body(a, b, 0);
+}
+
+CL_INLINE cl_real cl_neg(cl_real a) { a.v = -a.v; return a; }
+
+CL_INLINE cl_real cl_mul_body(cl_real a, cl_real b, int careful)
+{
+    double v = a.v * b.v, e;
+    if (careful && a.exact && b.exact && isfinite(v)) {
+        if (a.v == 0.0 || b.v == 0.0)
+            return cl_exact(v);
+        if (fabs(v) >= CL_EFT_MIN) /* the fma residual is the exact rounding error */
+            return cl_approx(v, fabs(fma(a.v, b.v, -v)), careful);
+    }
+    e = fabs(v) * CL_U;
+    if (a.exact || b.exact) /* ETA unless an exact factor is 0 (then the product is exactly 0) */
+        e = e + (((a.exact && a.v == 0.0) || (b.exact && b.v == 0.0)) ? 0.0 : CL_ETA);
+    else
+        e = e + CL_ETA;
+    if (!b.exact) e = e + fabs(a.v) * b.e;
+    if (!a.exact) e = e + fabs(b.v) * a.e;
+    if (!a.exact && !b.exact) e = e + a.e * b.e;
+    return cl_approx(v, e, careful);
+}
+CL_SLOW cl_real cl_mul_careful(cl_real a, cl_real b) { return cl_mul_body(a, b, 1); }
+CL_INLINE cl_real cl_mul(cl_real a, cl_real b, int careful)
+{
+    return careful ? cl_mul_careful(a, b) : cl_mul_body(a, b, 0);
+}
+
+CL_INLINE cl_real cl_div_body(cl_real a, cl_real b, int careful)
+{
+    double v = a.v / b.v, e, den, num;
+    if (careful && a.exact && b.exact && b.v != 0.0 && isfinite(v)) {
+        if (a.v == 0.0)
+            return cl_exact(v);
+        if (fabs(v) >= CL_EFT_MIN && fabs(a.v) >= CL_EFT_MIN && fabs(b.v) >= CL_EFT_MIN
+            && fma(-v, b.v, a.v) == 0.0)
+            return cl_exact(v); /* a = v b exactly */
+    }
+    e = fabs(v) * CL_U + (a.exact ? (a.v == 0.0 ? 0.0 : CL_ETA) : CL_ETA);
+    if (a.exact && b.exact)
+        return cl_approx(v, e, careful);
+    den = b.exact ? fabs(b.v) : fabs(b.v) - b.e;
+    num = (fabs(v) * (1.0 + CL_U) + CL_ETA) * (b.exact ? 0.0 : b.e);
+    if (!a.exact) num = num + a.e;
+    e = e + (den > 0 ? num / den : INFINITY); /* the divisor's sign unknown: never certain */
+    return cl_approx(v, e, careful);
+}
+CL_SLOW cl_real cl_div_careful(cl_real a, cl_real b) { return cl_div_body(a, b, 1); }
+CL_INLINE cl_real cl_div(cl_real a, cl_real b, int careful)
+{
+    return careful ? cl_div_careful(a, b) : cl_div_body(a, b, 0);
+}
+
+CL_INLINE cl_real cl_sqrt_body(cl_real a, int careful)
+{
+    double v = sqrt(a.v), e, lo;
+    if (careful && a.exact && v >= CL_EFT_MIN && fma(v, v, -a.v) == 0.0)
+        return cl_exact(v);
+    e = fabs(v) * CL_U + CL_ETA;
+    if (!a.exact) {
+        lo = (a.v - a.e * CL_INFL) - (fabs(a.v) + a.e) * CL_U;
+        e = e + (lo > 0 ? a.e * CL_INFL / sqrt(lo) : sqrt(a.e * CL_INFL)) * (1.0 + 4 * CL_U);
+    }
+    return cl_approx(v, e, careful);
+}
+CL_SLOW cl_real cl_sqrt_careful(cl_real a) { return cl_sqrt_body(a, 1); }
+CL_INLINE cl_real cl_sqrt(cl_real a, int careful)
+{
+    return careful ? cl_sqrt_careful(a) : cl_sqrt_body(a, 0);
+}
+
+/* filtered.certain: the sign of a - b in the reals is the float's */
+CL_INLINE int cl_certain(cl_real a, cl_real b)
+{
+    double e;
+    if (a.exact && b.exact)
+        return 1;
+    e = a.exact ? b.e : b.exact ? a.e : a.e + b.e;
+    return fabs(a.v - b.v) > e * CL_INFL || e == 0;
+}
+
+CL_INLINE int cl_lt(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v < b.v : -1; }
+CL_INLINE int cl_le(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v <= b.v : -1; }
+CL_INLINE int cl_gt(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v > b.v : -1; }
+CL_INLINE int cl_ge(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v >= b.v : -1; }
+CL_INLINE int cl_eq(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v == b.v : -1; }
+CL_INLINE int cl_ne(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v != b.v : -1; }
+
+/* three-valued connectives: 1 holds, 0 fails, -1 unknown */
+CL_INLINE int cl_and(int a, int b) { return (a == 0 || b == 0) ? 0 : (a < 0 || b < 0) ? -1 : 1; }
+CL_INLINE int cl_or(int a, int b) { return (a == 1 || b == 1) ? 1 : (a < 0 || b < 0) ? -1 : 0; }
+CL_INLINE int cl_not(int a) { return a < 0 ? -1 : !a; }
+CL_INLINE int cl_iff(int a, int b) { return (a < 0 || b < 0) ? -1 : a == b; }
+
+/* filtered.tight and filtered.lower: an output is returned as a float <= its real value */
+CL_INLINE int cl_tight(cl_real x)
+{
+    if (x.exact)
+        return isfinite(x.v);
+    return x.e * CL_INFL <= fabs(x.v) * CL_TIGHT && isfinite(x.v);
+}
+
+CL_INLINE double cl_lower(cl_real x) { return x.exact ? x.v : nextafter(x.v - x.e * CL_INFL, -INFINITY); }
+
+/* one pass of the step: returns 1 (a run), 0 (no run), -1 (undecided) or, in the filter pass, -2 (run the careful pass) */
+CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, double fxp, double fyp, double fzp, double fx, double fy, double fz, double D, double e, double G, const double *rx, const double *nx, const double *ry, const double *ny, const double *rz, const double *nz, size_t n_B, double *out_k)
+{
+    int cl_t = 0;
+    (void)cl_t;
+    /* inputs are finite numbers, or outside the model's domain: no run */
+    if (!(isfinite(px) && isfinite(py) && isfinite(pz) && isfinite(fxp) && isfinite(fyp) && isfinite(fzp) && isfinite(fx) && isfinite(fy) && isfinite(fz) && isfinite(D) && isfinite(e) && isfinite(G))) goto blocked;
+    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+        if (!isfinite(rx[cl_i])) goto blocked;
+    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+        if (!isfinite(nx[cl_i])) goto blocked;
+    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+        if (!isfinite(ry[cl_i])) goto blocked;
+    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+        if (!isfinite(ny[cl_i])) goto blocked;
+    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+        if (!isfinite(rz[cl_i])) goto blocked;
+    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+        if (!isfinite(nz[cl_i])) goto blocked;
+    cl_real cl_px = cl_exact(px);
+    cl_real cl_py = cl_exact(py);
+    cl_real cl_pz = cl_exact(pz);
+    cl_real cl_fxp = cl_exact(fxp);
+    cl_real cl_fyp = cl_exact(fyp);
+    cl_real cl_fzp = cl_exact(fzp);
+    cl_real cl_fx = cl_exact(fx);
+    cl_real cl_fy = cl_exact(fy);
+    cl_real cl_fz = cl_exact(fz);
+    cl_real cl_D = cl_exact(D);
+    cl_real cl_e = cl_exact(e);
+    cl_real cl_G = cl_exact(G);
+    (void)cl_px; (void)cl_py; (void)cl_pz; (void)cl_fxp; (void)cl_fyp; (void)cl_fzp; (void)cl_fx; (void)cl_fy; (void)cl_fz; (void)cl_D; (void)cl_e; (void)cl_G; /* some are only set */
+    cl_real cl_k = cl_exact(1.0);
+    for (size_t i = 0; i < n_B; i++) { /* boundary loop */
+        cl_real cl_u = cl_exact(1.0);
+        cl_real cl_d0 = cl_add(cl_add(cl_mul(cl_add(cl_px, cl_neg(cl_exact(rx[i])), careful), cl_exact(nx[i]), careful), cl_mul(cl_add(cl_py, cl_neg(cl_exact(ry[i])), careful), cl_exact(ny[i]), careful), careful), cl_mul(cl_add(cl_pz, cl_neg(cl_exact(rz[i])), careful), cl_exact(nz[i]), careful), careful);
+        cl_real cl_fnp = cl_add(cl_add(cl_mul(cl_fxp, cl_exact(nx[i]), careful), cl_mul(cl_fyp, cl_exact(ny[i]), careful), careful), cl_mul(cl_fzp, cl_exact(nz[i]), careful), careful);
+        cl_real cl_fn = cl_add(cl_add(cl_mul(cl_fx, cl_exact(nx[i]), careful), cl_mul(cl_fy, cl_exact(ny[i]), careful), careful), cl_mul(cl_fz, cl_exact(nz[i]), careful), careful);
+        /* choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0) */
+        if ((cl_t = cl_ge(cl_d0, cl_D)) != 0) { /* ff1 free (d0 >= D) */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_exact(1.0);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_ge(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0)))) != 0) { /* ff2 slow, fnp>=0 fn>=0 */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_exact(1.0);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_gt(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_le(cl_div(cl_mul(cl_exact(-1.0), cl_fn, careful), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful)))) != 0) { /* ff3 slow, turns early */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_exact(1.0);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_gt(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_ge(cl_div(cl_mul(cl_exact(-1.0), cl_fn, careful), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff4 slow, turns late */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_div(cl_d0, cl_D, careful);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_eq(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff5 slow, fnp=0 fn<=0 */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_div(cl_d0, cl_D, careful);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_lt(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_le(cl_div(cl_mul(cl_exact(-1.0), cl_fn, careful), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff6 slow, reverses early */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_div(cl_d0, cl_D, careful);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_lt(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_ge(cl_div(cl_mul(cl_exact(-1.0), cl_fn, careful), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful)))) != 0) { /* ff7 slow, reverses late */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_exact(1.0);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_eq(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0)))) != 0) { /* ff8 slow, fnp=0 fn>=0 */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_exact(1.0);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_le(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff9 slow, fnp<=0 fn<=0 */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_div(cl_d0, cl_D, careful);
+        } else if ((cl_t = cl_le(cl_d0, cl_exact(0.0))) != 0) { /* ff10 stuck (d0 <= 0) */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_exact(0.0);
+        } else { /* no alternative is enabled: the model has no run */
+            goto blocked;
+        }
+        cl_real cl_dist = cl_add(cl_d0, cl_mul(cl_mul(cl_G, cl_u, careful), cl_add(cl_mul(cl_fn, cl_e, careful), cl_mul(cl_mul(cl_fnp, cl_mul(cl_e, cl_e, careful), careful), cl_exact(0.5), careful), careful), careful), careful);
+        cl_real cl_disc = cl_add(cl_mul(cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), careful), cl_neg(cl_mul(cl_mul(cl_mul(cl_mul(cl_exact(2.0), cl_G, careful), cl_u, careful), cl_fnp, careful), cl_d0, careful)), careful);
+        /* choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away */
+        cl_real cl_kt = cl_approx(NAN, NAN, careful);
+        if ((cl_t = cl_and(cl_and(cl_le(cl_fnp, cl_exact(0.0)), cl_ge(cl_dist, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sa fnp<=0, clear */
+            if (cl_t < 0) CL_UNSURE;
+            cl_kt = cl_u;
+        } else if ((cl_t = cl_and(cl_and(cl_le(cl_fnp, cl_exact(0.0)), cl_le(cl_dist, cl_exact(0.0))), cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* se fnp<=0, would cross */
+            if (cl_t < 0) CL_UNSURE;
+            cl_kt = cl_mul(cl_mul(cl_exact(-1.0), cl_d0, careful), cl_div(cl_exact(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), careful), careful);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_le(cl_disc, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sb turns back, disc<=0 */
+            if (cl_t < 0) CL_UNSURE;
+            cl_kt = cl_u;
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_ge(cl_disc, cl_exact(0.0))), cl_ge(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_exact(0.0))), cl_ne(cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), cl_exact(0.0)))) != 0) { /* sf turns within step */
+            if (cl_t < 0) CL_UNSURE;
+            cl_kt = cl_mul(cl_mul(cl_mul(cl_exact(2.0), cl_fnp, careful), cl_d0, careful), cl_div(cl_exact(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful), careful);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_ge(cl_disc, cl_exact(0.0))), cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_exact(0.0))), cl_le(cl_dist, cl_exact(0.0))), cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* sg still inward, would cross */
+            if (cl_t < 0) CL_UNSURE;
+            cl_kt = cl_mul(cl_mul(cl_exact(-1.0), cl_d0, careful), cl_div(cl_exact(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), careful), careful);
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_ge(cl_disc, cl_exact(0.0))), cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_exact(0.0))), cl_ge(cl_dist, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sc still inward, clear */
+            if (cl_t < 0) CL_UNSURE;
+            cl_kt = cl_u;
+        } else if ((cl_t = cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sd away */
+            if (cl_t < 0) CL_UNSURE;
+            cl_kt = cl_u;
+        } else { /* no alternative is enabled: the model has no run */
+            goto blocked;
+        }
+        { cl_real cl_v = cl_kt; /* k := min(k, kt), rounded down */
+            if (!cl_tight(cl_v)) CL_UNSURE;
+            if (cl_lower(cl_v) < cl_k.v) cl_k = cl_exact(cl_lower(cl_v)); }
+    }
+    /* an output is returned rounded down to a float <= its real value */
+    if (!cl_tight(cl_k)) CL_UNSURE;
+    *out_k = cl_lower(cl_k);
     return 1;
 blocked:
     *out_k = NAN;
     return 0;
+undecided:
+    *out_k = NAN;
+    return -1;
+}
+
+int sbs_ctrl2_controller(double px, double py, double pz, double fxp, double fyp, double fzp, double fx, double fy, double fz, double D, double e, double G, const double *rx, const double *nx, const double *ry, const double *ny, const double *rz, const double *nz, size_t n_B, double *out_k)
+{
+    int rc = sbs_ctrl2_pass(0, px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz, n_B, out_k);
+    return rc == -2 ? sbs_ctrl2_pass(1, px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz, n_B, out_k) : rc;
 }

@@ -123,6 +123,8 @@ int sbs_ctrl2_fixture_step(const double p[3], const double f[3], const double fp
                                    rx, nx, ry, ny, rz, nz, n, &gain);
     if (-SBS_CTRL2_ROUNDING <= gain && gain < 0)
         gain = 0.0; /* -d0*tmp for a tool on a plane up to rounding: a lower gain is always allowed */
+    if (enabled < 0)
+        return fall_back(SBS_CTRL2_UNDECIDED, p, memory, k);
     if (!enabled)
         return fall_back(SBS_CTRL2_NO_RUN, p, memory, k);
     verdict = check_command(gain, p, f, fp, rx, ry, rz, nx, ny, nz, n, G, e);

@@ -27,7 +27,8 @@ enum sbs_ctrl2_reason {
     SBS_CTRL2_PAST_BOUNDARY,        /* the tool is already past a boundary */
     SBS_CTRL2_MOTION,               /* the measured position is not the model's prediction */
     SBS_CTRL2_NO_RUN,               /* the verified controller has no enabled case (or overflowed) */
-    SBS_CTRL2_COMMAND               /* the gain fails the monitor's safe-for-step check */
+    SBS_CTRL2_COMMAND,              /* the gain fails the monitor's safe-for-step check */
+    SBS_CTRL2_UNDECIDED             /* a near-tie the controller's floats could not decide */
 };
 
 typedef struct {

@@ -20,6 +20,7 @@ that a zero may differ in sign (min over ±0)."""
 from __future__ import annotations
 
 from certiloop.kernel.extract.analysis import _split, _uses_families
+from certiloop.kernel.extract.c_certified import RUNTIME
 from certiloop.kernel.extract.c_syntax import (
     CFLAGS,
     HEADER_H,
@@ -32,7 +33,7 @@ from certiloop.kernel.extract.c_syntax import (
 )
 from certiloop.kernel.extract.errors import ExtractError
 from certiloop.kernel.extract.template import SCALAR, VECTORISED
-from certiloop.models.lang.terms import REAL, ModelError
+from certiloop.models.lang.terms import BOOL, REAL, ModelError
 from certiloop.models.lang.theorem import Theorem
 
 
@@ -60,6 +61,9 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
         from certiloop.kernel.extract.c_family import c_family, pinned_output
 
         lines, params, families, outputs, em = c_family(theorem, step)
+        if len(em.sizes) > 1:
+            raise ExtractError("families over two index sorts are not written in C")
+        scalar_shape = False
         for v, sort in outputs:
             if sort.is_array:
                 tail += pinned_output(em, v, sort)
@@ -69,6 +73,7 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
         from certiloop.kernel.extract.c_scalar import c_scalar
 
         lines, params, outputs, decls, blocks = c_scalar(theorem, step)
+        scalar_shape = True
         how = SCALAR[step.where]
     names = [*params, *families, *(v for v, _ in outputs)]
     check_c_names(theorem.name, names + [f"out_{v}" for v, _ in outputs] + sizes)
@@ -76,21 +81,59 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
     signature += [f"const {c_element_type(s.range)} *{v}" for v, s in families.items()]
     signature += [f"size_t {n}" for n in sizes]
     signature += [f"{c_element_type(s.range) if s.is_array else c_type(s)} *out_{v}" for v, s in outputs]
-    finite = [v for v, s in outputs if s == REAL]
-    body = [f"int {base}_controller({', '.join(signature)})", "{"]
+    # one pass, inlined twice: careful = 0 (the filter) and careful = 1 (error-free
+    # transformations), each specialised by the compiler for its constant
+    body = [c_comment("one pass of the step: returns 1 (a run), 0 (no run), -1 (undecided) or, in the "
+                      "filter pass, -2 (run the careful pass)"),
+            f"CL_INLINE int {base}_pass(int careful, {', '.join(signature)})", "{",
+            "    int cl_t = 0;", "    (void)cl_t;"]
+    reals = [v for v, s in params.items() if s == REAL]
+    real_families = [v for v, s in families.items() if s.range == REAL]
+    if reals or real_families:
+        body.append("    " + c_comment("inputs are finite numbers, or outside the model's domain: no run"))
+    if reals:
+        body.append(f"    if (!({' && '.join(f'isfinite({v})' for v in reals)})) goto blocked;")
+    for fam in real_families:
+        size = next(n for n in sizes)  # one index sort: checked by c_family
+        body.append(f"    for (size_t cl_i = 0; cl_i < {size}; cl_i++)")
+        body.append(f"        if (!isfinite({fam}[cl_i])) goto blocked;")
+    for v, s in params.items():
+        if s == REAL:
+            body.append(f"    cl_real cl_{v} = cl_exact({v});")
+        elif scalar_shape:
+            body.append(f"    int cl_{v} = ({v} != 0);")
+    copies = [v for v, s in params.items() if s == REAL or scalar_shape]
+    if copies:
+        unused = " ".join(f"(void)cl_{v};" for v in copies)
+        body.append(f"    {unused} {c_comment('some are only set')}")
     body += ["    " + d for d in decls]
-    body += without_dead(lines, keep={v for v, _ in outputs} | set(params))
-    if finite:
-        body.append("    " + c_comment("floating-point overflow is no run the proof covers"))
-        body.append(f"    if (!({' && '.join(f'isfinite({v})' for v in finite)})) goto blocked;")
+    body += without_dead(lines, keep={f"cl_{v}" for v, _ in outputs} | {f"cl_{v}" for v in params})
+    body.append("    " + c_comment("an output is returned rounded down to a float <= its real value"))
+    for v, s in outputs:
+        if s == REAL:
+            body.append(f"    if (!cl_tight(cl_{v})) CL_UNSURE;")
+        elif s == BOOL:
+            body.append(f"    if (cl_{v} < 0) CL_UNSURE;")
     body += ["    " + t for t in tail]
-    body += [f"    *out_{v} = {v};" for v, s in outputs if not s.is_array]
+    body += [f"    *out_{v} = {'cl_lower(cl_' + v + ')' if s == REAL else 'cl_' + v};" for v, s in outputs
+             if not s.is_array]
     body.append("    return 1;")
-    if finite or blocks:
+    text = "\n".join(body)
+    if "blocked" in text:
         body.append("blocked:")
         body += [f"    *out_{v} = {'NAN' if s == REAL else '0'};" for v, s in outputs if not s.is_array]
         body.append("    return 0;")
+    if "CL_UNSURE" in text or "CL_TEST" in text:
+        body.append("undecided:")
+        body += [f"    *out_{v} = {'NAN' if s == REAL else '0'};" for v, s in outputs if not s.is_array]
+        body.append("    return -1;")
+    else:
+        body.insert(body.index("    int cl_t = 0;"), "    (void)careful;")
     body.append("}")
+    args = ", ".join(name.rsplit("*", 1)[-1].split()[-1] for name in signature)
+    body += ["", f"int {base}_controller({', '.join(signature)})", "{",
+             f"    int rc = {base}_pass(0, {args});",
+             f"    return rc == -2 ? {base}_pass(1, {args}) : rc;", "}"]
     what = "algorithm" if step.where == "algorithm" else "discrete controller"
     doc = _doc(outputs, families, sizes)
     header = HEADER_H.format(
@@ -101,7 +144,7 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
         doc=doc, params=", ".join(signature))
     source = (f"/* Generated by `certiloop extract {theorem.name} --lang c` -- do not edit; re-extract "
               f"instead.\n   Model {theorem.name}, content hash {theorem.content_hash}; see {base}.h. */\n"
-              f"#include <math.h>\n\n#include \"{base}.h\"\n\n" + "\n".join(body) + "\n")
+              f"#include <math.h>\n\n#include \"{base}.h\"\n{RUNTIME}\n" + "\n".join(body) + "\n")
     return {f"{base}.h": header, f"{base}.c": source}
 
 

@@ -76,7 +76,9 @@ class Kernel:
         self.outputs = macros[f"{upper}_OUTPUTS"].split()
 
     def __call__(self, *args):
-        """controller(*INPUTS, *FAMILIES) -> (*outputs, enabled), as the Python kernel."""
+        """controller(*INPUTS, *FAMILIES) -> (*outputs, enabled), as the Python kernel; after
+        the call, `undecided` says whether enabled is False because the C could not decide
+        (return code -1) rather than because the model has no run (0)."""
         given = dict(zip(self.inputs + self.families, args))
         if len(given) != len(args) or len(args) != len(self.inputs) + len(self.families):
             raise TypeError(f"{self.base}_controller takes {self.inputs + self.families}")
@@ -97,7 +99,9 @@ class Kernel:
                 a = np.zeros(1 if ctype in _CTYPES else length, dtype=_DTYPES.get(ctype, np.int32))
                 outs.append((ctype in _CTYPES, a))
                 call.append(a.ctypes.data)
-        enabled = bool(self.fn(*call))
+        rc = self.fn(*call)
+        self.undecided = rc < 0  # a near-tie the floats could not decide: the caller falls back
+        enabled = rc == 1
         values = [a[0].item() if scalar else a.astype(bool) if a.dtype == np.uint8 else a
                   for scalar, a in outs]
         return (*values, enabled)

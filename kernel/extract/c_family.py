@@ -14,7 +14,8 @@ the alternative reads them, guarded by their divisor being non-zero, as in the P
 from __future__ import annotations
 
 from certiloop.kernel.extract.analysis import _conjuncts, _is_index_sort, _mentions, _outputs, _sort_of, _Step
-from certiloop.kernel.extract.c_syntax import c_comment, c_const, c_op, c_type
+from certiloop.kernel.extract.c_certified import cl_all, cl_constant, cl_op
+from certiloop.kernel.extract.c_syntax import c_comment
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _solve
 from certiloop.kernel.extract.vectorised import _family_pin, _min_update, _scalars_written, _target_name
@@ -23,6 +24,11 @@ from certiloop.models.lang.terms import BOOL, REAL, Node, free_vars
 from certiloop.models.lang.theorem import Theorem
 
 BLOCK = "goto blocked;"
+
+
+def local_type(sort) -> str:
+    """A model value in the generated C: a certified real, or a three-valued Bool."""
+    return "int" if sort == BOOL else "cl_real"
 
 
 class _CFamily:
@@ -39,6 +45,7 @@ class _CFamily:
         self.pending: dict[str, bool] = {}  # family `F := *` not pinned yet -> F was read before
         self.assigned: dict[str, None] = {}  # top-level values the step computes
         self.blocks = False
+        self.reduced: set[str] = set()  # min-reductions done: a lower bound, not a value to decide on
 
     # ------------------------------------------------------------------ expressions
     def line(self, text: str) -> None:
@@ -57,7 +64,7 @@ class _CFamily:
         subst = subst or {}
         op = n.op
         if op == "const":
-            return c_const(n, True)  # the numpy code writes every constant as a float
+            return cl_constant(n)
         if op in ("true", "false"):
             return "1" if op == "true" else "0"
         if op == "var":
@@ -66,12 +73,15 @@ class _CFamily:
                 raise _refuse(n, "a family's index is only usable to read the family (f(i))")
             if name in subst:
                 return subst[name]
+            if name in self.reduced:
+                raise _refuse(n, "a min over the boundaries read after the loop (C returns it, rounded "
+                              "down, but does not decide on it)")
             if self.is_local(name):
-                return name
+                return f"cl_{name}"
             if n.sort.is_array:
                 raise _refuse(n, "a whole family outside f(i)")
             self.params.setdefault(name, n.sort)
-            return name
+            return f"({name} != 0)" if n.sort == BOOL else f"cl_{name}"
         if op == "select":
             root, idx = n.args[0], n.args[1:]
             if len(idx) != 1 or idx[0].op != "var" or idx[0].payload != self.index:
@@ -80,7 +90,7 @@ class _CFamily:
             if name in subst:
                 return subst[name]
             if self.is_local(name):
-                return name
+                return f"cl_{name}"
             if name in self.pins:
                 value, bound = self.pins[name]
                 return self.code(_rename(value, bound, self.index), subst)
@@ -89,17 +99,18 @@ class _CFamily:
                                    f"`{_brief(n)}` reads it before a test `∀j ({name}(j) <-> ...)` pins it")
             self.families.setdefault(name, root.sort)
             self.size_of(root.sort)
-            return f"{name}[{self.index}]"
+            cell = f"{name}[{self.index}]"
+            return f"({cell} != 0)" if root.sort.range == BOOL else f"cl_exact({cell})"
         if op in ("forall", "exists"):
             raise _refuse(n, "a quantifier inside a term; only a test `?∀j P(j)` is written in C")
-        return c_op(n, [self.code(x, subst) for x in n.args])
+        return cl_op(n, [self.code(x, subst) for x in n.args])
 
     # ------------------------------------------------------------------ statements
     def assign(self, name: str, value: str, sort) -> None:
         if self.is_local(name):
-            self.line(f"{name} = {value};")
+            self.line(f"cl_{name} = {value};")
         else:
-            self.line(f"{c_type(sort)} {name} = {value};")
+            self.line(f"{local_type(sort)} cl_{name} = {value};")
             self.declared[-1].add(name)
 
     def test(self, atom: Node) -> None:
@@ -120,15 +131,16 @@ class _CFamily:
                 self.index = None
             if atom.op == "forall":
                 self.line(f"for (size_t {j} = 0; {j} < {size}; {j}++) {c_comment(_brief(atom, 70))}")
-                self.line(f"    if (!{body}) {BLOCK}")
+                self.line(f"    CL_TEST({body});")
             else:
                 self.line(f"{{ {c_comment(_brief(atom, 70))}")
-                self.line("    int found = 0;")
-                self.line(f"    for (size_t {j} = 0; {j} < {size} && !found; {j}++) found = {body};")
-                self.line(f"    if (!found) {BLOCK}")
+                self.line("    int cl_found = 0;")
+                self.line(f"    for (size_t {j} = 0; {j} < {size}; {j}++)")
+                self.line(f"        cl_found = cl_or(cl_found, {body});")
+                self.line("    CL_TEST(cl_found);")
                 self.line("}")
             return
-        self.line(f"if (!{self.code(atom)}) {BLOCK}")
+        self.line(f"CL_TEST({self.code(atom)});")
 
     def choice(self, p: Choice) -> None:
         """`if`/`else if` over the alternatives in the model's order; none enabled: blocked."""
@@ -139,14 +151,17 @@ class _CFamily:
             if not self.is_local(v):
                 sort = _sort_of(self.theorem, v, REAL)
                 sort = sort.range if sort.is_array else sort
-                self.line(f"{c_type(sort)} {v} = NAN;" if sort == REAL else f"{c_type(sort)} {v} = 0;")
+                init = "0" if sort == BOOL else "cl_approx(NAN, NAN, careful)"
+                self.line(f"{local_type(sort)} cl_{v} = {init};")
                 self.declared[-1].add(v)
         self.blocks = True
+        # the first alternative that holds; one the floats cannot decide before it: CL_UNSURE
         for k, ((mask, effects), label) in enumerate(zip(alts, p.labels)):
-            cond = " && ".join(mask) if mask else "1"
-            self.line(f"{'if' if k == 0 else '} else if'} ({cond}) {{ {c_comment(label)}")
+            head = "if" if k == 0 else "} else if"
+            self.line(f"{head} ((cl_t = {cl_all(mask)}) != 0) {{ {c_comment(label)}")
+            self.line("    if (cl_t < 0) CL_UNSURE;")
             for v, value in effects.items():
-                self.line(f"    {v} = {value};")
+                self.line(f"    cl_{v} = {value};")
         self.line(f"}} else {{ {c_comment('no alternative is enabled: the model has no run')}")
         self.line(f"    {BLOCK}")
         self.line("}")
@@ -163,7 +178,7 @@ class _CFamily:
                     if solved is not None:
                         value, divisor = _solve(atom, solved)
                         if divisor.op != "const":
-                            mask.append(f"({self.code(divisor, subst)} != 0)")
+                            mask.append(f"cl_ne({self.code(divisor, subst)}, cl_exact(0.0))")
                         subst[solved] = effects[solved] = self.code(value, subst)
                         continue
                     if atom.op != "true":
@@ -223,8 +238,10 @@ class _CFamily:
         self.declared.append(set())
         self.opened = set()
         if loop.each.member.op != "true":
-            self.line(f"if (!{self.code(loop.each.member)}) continue; "
-                      + c_comment("a boundary the loop does not visit"))
+            member = self.code(loop.each.member)
+            self.line(f"{{ int cl_m = {member}; {c_comment('boundaries the loop visits')}")
+            self.line("    if (cl_m < 0) CL_UNSURE;")
+            self.line("    if (!cl_m) continue; }")
         reduced: list[str] = []
         for s in inner:
             red = _min_update(s)
@@ -234,8 +251,10 @@ class _CFamily:
                     raise _refuse(s, f"`{var}` is folded over the boundaries but has no value before the "
                                   "loop")
                 v = self.code(value)
-                self.line(c_comment(f"{var} := min({var}, {_brief(value, 40)}), keeping a NaN as np.minimum"))
-                self.line(f"if (isnan({v}) || {v} < {var}) {var} = {v};")
+                self.line(f"{{ cl_real cl_v = {v}; "
+                          + c_comment(f"{var} := min({var}, {_brief(value, 40)}), rounded down"))
+                self.line("    if (!cl_tight(cl_v)) CL_UNSURE;")
+                self.line(f"    if (cl_lower(cl_v) < cl_{var}.v) cl_{var} = cl_exact(cl_lower(cl_v)); }}")
                 reduced.append(var)
                 continue
             for v in _scalars_written(s, index):
@@ -247,6 +266,7 @@ class _CFamily:
         self.index = None
         self.depth -= 1
         self.line("}")
+        self.reduced.update(reduced)
         return reduced
 
 
@@ -343,5 +363,14 @@ def pinned_output(em: _CFamily, name: str, sort) -> list[str]:
     finally:
         em.index = None
     size = em.size_of(sort)
-    elem = "(unsigned char)" if sort.range == BOOL else ""
-    return [f"for (size_t {bound} = 0; {bound} < {size}; {bound}++) out_{name}[{bound}] = {elem}{code};"]
+    if sort.range == BOOL:
+        return [f"for (size_t {bound} = 0; {bound} < {size}; {bound}++) {{",
+                f"    int cl_o = {code};",
+                "    if (cl_o < 0) CL_UNSURE;",
+                f"    out_{name}[{bound}] = (unsigned char)cl_o;",
+                "}"]
+    return [f"for (size_t {bound} = 0; {bound} < {size}; {bound}++) {{",
+            f"    cl_real cl_o = {code};",
+            "    if (!cl_tight(cl_o)) CL_UNSURE;",
+            f"    out_{name}[{bound}] = cl_lower(cl_o);",
+            "}"]

@@ -8,7 +8,9 @@ Arrays (the Hoare-triple algorithms over arrays) are not written in C yet and ar
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.c_syntax import c_comment, c_const, c_op, c_type
+from certiloop.kernel.extract.c_certified import cl_all, cl_constant, cl_op
+from certiloop.kernel.extract.c_family import local_type
+from certiloop.kernel.extract.c_syntax import c_comment
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _Root, _solutions
 from certiloop.kernel.extract.scalar import _Path, _Python
@@ -23,45 +25,48 @@ class _CScalar(_Python):
         super().__init__(*args)
         self.depth = 1
         self.uses_taken = False
+        self.uses_t = False
         self.blocks = False
 
     # ------------------------------------------------------------------ expressions
     def code(self, n: Node, subst: dict[str, str | None] | None = None, real: bool = False) -> str:
+        """Terms as certified values (cl_real), formulas three-valued (see c_certified)."""
         subst = subst if subst is not None else {}
         op = n.op
         if op == "const":
-            return c_const(n, real)
+            return cl_constant(n)  # an Int constant too: every constant is an exact rational
         if op in ("true", "false"):
             return "1" if op == "true" else "0"
         if op == "var":
+            name = n.payload
             if n.sort.is_array:
                 raise _refuse(n, "arrays in a scalar step are not written in C (only in Python)")
-            return super().code(n, subst, real)
+            if n.sort == INT:
+                raise _refuse(n, "Int arithmetic is not written in certified C")
+            if name in subst:
+                if subst[name] is None:
+                    raise ExtractError(f"`{name} := *` is read before a test pins it down; cannot extract")
+                return subst[name]
+            self.read(name)
+            return f"cl_{name}"
         if op == "select":
             raise _refuse(n, "arrays in a scalar step are not written in C (only in Python)")
-        if op == "cmp":
-            r = any(a.sort == REAL for a in n.args)
-            return c_op(n, [self.code(x, subst, r) for x in n.args])
-        if op in ("+", "*", "neg", "/", "^"):
-            r = real or n.sort == REAL or op == "/"
-            a = [self.code(x, subst, r) for x in n.args]
-            if op == "/":  # real division, as Python's / on ints
-                a = [f"((double){c})" if x.sort == INT and x.op != "const" else c for x, c in zip(n.args, a)]
-            return c_op(n, a)
         if op in ("forall", "exists"):
             raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
-        return c_op(n, [self.code(x, subst) for x in n.args])
+        return cl_op(n, [self.code(x, subst) for x in n.args])
 
     def root_code(self, root: _Root, subst: dict[str, str | None]) -> str:
         c = [self.code(p, subst, True) for p in root.parts]
         if root.kind == "value":
             return c[0]
         if root.kind == "sqrt+":
-            return f"sqrt({c[0]})"
+            return f"cl_sqrt({c[0]}, careful)"
         if root.kind == "sqrt-":
-            return f"(-sqrt({c[0]}))"
-        sign = "+" if root.kind == "quad+" else "-"
-        return f"(((-{c[0]}) {sign} sqrt({c[1]})) / (2.0 * {c[2]}))"
+            return f"cl_neg(cl_sqrt({c[0]}, careful))"
+        sign = "cl_add" if root.kind == "quad+" else "cl_add"
+        root_ = f"cl_sqrt({c[1]}, careful)" if root.kind == "quad+" else f"cl_neg(cl_sqrt({c[1]}, careful))"
+        return (f"cl_div({sign}(cl_neg({c[0]}), {root_}, careful), cl_mul(cl_exact(2.0), {c[2]}, careful), "
+                "careful)")
 
     # ------------------------------------------------------------------ statements
     def statement(self, q: Program) -> None:
@@ -69,7 +74,7 @@ class _CScalar(_Python):
             name = q.target.payload
             value = self.code(q.value, real=q.target.sort == REAL)
             self.opened.pop(name, None)
-            self.line(f"{name} = {value};")
+            self.line(f"cl_{name} = {value};")
             self.defined.add(name)
             self.assigned[name] = None
         elif isinstance(q, Assign):
@@ -79,7 +84,7 @@ class _CScalar(_Python):
 
     def blocked(self, cond: str) -> None:
         self.blocks = True
-        self.line(f"if (!{cond}) {BLOCK}")
+        self.line(f"CL_TEST({cond});")
 
     def test(self, q: Test) -> None:
         from certiloop.kernel.extract.analysis import _conjuncts, _mentions
@@ -95,7 +100,8 @@ class _CScalar(_Python):
                                   "to take depends on what follows; put it in a choice's alternative")
                 for g in roots[0].guards:
                     self.blocked(self.test_code(g))
-                self.line(f"{target} = {self.root_code(roots[0], {})}; {c_comment('from ' + _brief(atom))}")
+                value = self.root_code(roots[0], {})
+                self.line(f"cl_{target} = {value}; {c_comment('from ' + _brief(atom))}")
                 del self.opened[target]
                 self.pinned.add(target)
                 self.defined.add(target)
@@ -154,7 +160,7 @@ class _CScalar(_Python):
         commits: list[list[str]] = []
         changed: dict[str, None] = {}
         for path in paths:
-            commits.append([f"{v} = {value};" for v, value in path.effects.items() if v in live])
+            commits.append([f"cl_{v} = {value};" for v, value in path.effects.items() if v in live])
             changed.update((v, None) for v in path.effects if v in live)
         for v in changed:
             if v not in self.defined and any(v not in path.effects for path in paths):
@@ -170,10 +176,11 @@ class _CScalar(_Python):
             self.assigned[v] = None
 
     def _elif_chain(self, paths: list[_Path], commits: list[list[str]]) -> None:
+        """The first alternative that holds; one the floats cannot decide before it: CL_UNSURE."""
+        self.uses_t = True
         for n, (path, body) in enumerate(zip(paths, commits)):
-            conds = [item[1] for item in path.items if item[1] != "1"]
-            head = "if" if n == 0 else "} else if"
-            if not conds:  # always enabled: the alternatives after it are never tried
+            cond = cl_all([item[1] for item in path.items])
+            if cond == "1":  # always enabled: the alternatives after it are never tried
                 if n + 1 < len(paths):
                     self.line(c_comment(f"never tried: {' | '.join(q.label for q in paths[n + 1:])} "
                                         f"(`{path.label}` is always enabled)"))
@@ -182,7 +189,8 @@ class _CScalar(_Python):
                     self.line(f"    {text}")
                 self.line("}")
                 return
-            self.line(f"{head} ({' && '.join(conds)}) {{ {c_comment(path.label)}")
+            self.line(f"{'if' if n == 0 else '} else if'} ((cl_t = {cond}) != 0) {{ {c_comment(path.label)}")
+            self.line("    if (cl_t < 0) CL_UNSURE;")
             for text in body:
                 self.line(f"    {text}")
         self.line(f"}} else {{ {c_comment('no alternative is enabled: the model has no run')}")
@@ -191,29 +199,23 @@ class _CScalar(_Python):
 
     def _attempts(self, paths: list[_Path], commits: list[list[str]]) -> None:
         """Alternatives whose conditions need solved values: each tried in turn, every value
-        computed only where its guard holds."""
-        self.uses_taken = True
+        computed only where its guard holds; a guard the floats cannot decide: CL_UNSURE."""
+        self.uses_taken = self.uses_t = True
         self.line("taken = 0;")
         for path, body in zip(paths, commits):
             self.line(c_comment(path.label))
             opened = 0
-            pending = ["!taken"]
+            pending: list[str] = []
+            first = True
             for item in path.items:
                 if item[0] == "if":
-                    if item[1] != "1":
-                        pending.append(item[1])
+                    pending.append(item[1])
                     continue
-                if pending:
-                    self.line(f"if ({' && '.join(pending)}) {{")
-                    self.depth += 1
-                    opened += 1
-                    pending = []
+                opened += self.guard(pending, first)
+                first, pending = False, []
                 value, _, note = item[2].partition("  # ")
-                self.line(f"double {item[1]} = {value};" + (f" {c_comment(note)}" if note else ""))
-            if pending:
-                self.line(f"if ({' && '.join(pending)}) {{")
-                self.depth += 1
-                opened += 1
+                self.line(f"cl_real {item[1]} = {value};" + (f" {c_comment(note)}" if note else ""))
+            opened += self.guard(pending, first)
             for text in body:
                 self.line(text)
             self.line("taken = 1;")
@@ -221,6 +223,20 @@ class _CScalar(_Python):
                 self.depth -= 1
                 self.line("}")
         self.line(f"if (!taken) {BLOCK} {c_comment('no alternative is enabled: the model has no run')}")
+
+    def guard(self, conds: list[str], first: bool) -> int:
+        """Open the blocks entered where the conditions hold (and, first, where no earlier path
+        was taken); returns how many it opened."""
+        cond = cl_all(conds)
+        self.line("if (!taken) {" if first else "{")
+        self.depth += 1
+        if cond == "1":
+            return 1
+        self.line(f"cl_t = {cond};")
+        self.line("if (cl_t < 0) CL_UNSURE;")
+        self.line("if (cl_t) {")
+        self.depth += 1
+        return 2
 
 
 def c_scalar(theorem, step) -> tuple[list[str], dict, list[tuple[str, object]], list[str]]:
@@ -250,10 +266,10 @@ def c_scalar(theorem, step) -> tuple[list[str], dict, list[tuple[str, object]], 
     if any(s.is_array for s in params.values()):
         raise ExtractError("arrays in a scalar step are not written in C (only in Python)")
     local = [v for v in em.assigned if v not in params]
-    decls = [f"{c_type(sort(v))} {v} = {'NAN' if sort(v) == REAL else '0'};" for v in local]
+    decls = [f"{local_type(sort(v))} cl_{v} = {'0' if sort(v) == BOOL else 'cl_approx(NAN, NAN, careful)'};"
+             for v in local]
     if em.uses_taken:
         decls.append("int taken;")
-    unread = local + [v for v in em.assigned if v in params]
-    if unread:
-        decls.append(" ".join(f"(void){v};" for v in unread) + " " + c_comment("some are only set"))
+    if local:
+        decls.append(" ".join(f"(void)cl_{v};" for v in local) + " " + c_comment("some are only set"))
     return em.lines, params, [(v, sort(v)) for v in outputs], decls, em.blocks

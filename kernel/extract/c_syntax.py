@@ -27,6 +27,7 @@ C_KEYWORDS = {
 # libm and <stddef.h> names the generated code calls, and its own variables
 C_RESERVED = C_KEYWORDS | {
     "sqrt", "isnan", "isfinite", "NAN", "INFINITY", "size_t", "NULL", "enabled", "taken", "skipped",
+    "careful", "again", "blocked", "undecided", "fma", "nextafter",
     "i", "j", "pow", "fabs", "HUGE_VAL",
 }
 
@@ -94,7 +95,8 @@ def c_op(n: Node, a: list[str]) -> str:
     raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
 
 
-_ASSIGNMENT = re.compile(r"^\s*(?:double |int |long long |unsigned char )?(\w+) = [^;]*;(?: /\*.*\*/)?$")
+_ASSIGNMENT = re.compile(r"^\s*(?:double |int |long long |unsigned char |cl_real )?(\w+) = [^;]*;"
+                         r"(?: /\*.*\*/)?$")
 
 
 def without_dead(lines: list[str], keep: set[str]) -> list[str]:
@@ -127,7 +129,8 @@ def c_comment(text: str) -> str:
 
 def check_c_names(model: str, names) -> None:
     for name in names:
-        if name in C_RESERVED or name.startswith("__") or not re.fullmatch(r"[A-Za-z_]\w*", name):
+        prefixed = name.startswith(("__", "cl_", "CL_"))
+        if name in C_RESERVED or prefixed or not re.fullmatch(r"[A-Za-z_]\w*", name):
             raise ExtractError(f"{model}: the symbol `{name}` clashes with a name the generated C uses; "
                                "rename it to extract C")
 
