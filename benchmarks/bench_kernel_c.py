@@ -8,7 +8,11 @@ The planes are those of benchmarks/bench_kernel.py (same generator, same seed) a
 is the same, so the two tables compare. The driver calls the step in batches of CALLS and
 reports the median batch time per call over BATCHES batches (clock_gettime, CLOCK_MONOTONIC).
 
-    python benchmarks/bench_kernel_c.py [--calls 2000] [--batches 200]
+    python benchmarks/bench_kernel_c.py [--calls 2000] [--batches 200] [--plain-from COMMIT]
+
+--plain-from COMMIT also times, in the same driver, the controller of kernel/c/sbs_ctrl2.c at
+that commit (25bbb7b: plain float C, before the decisions were certified): the cost of the
+float-sound filter, side by side on one machine.
 """
 
 from __future__ import annotations
@@ -38,6 +42,11 @@ DRIVER = r"""
 #include "sbs_ctrl2_fixture.h"
 #include "planes.h"
 
+int plain_sbs_ctrl2_controller(double px, double py, double pz, double fxp, double fyp, double fzp, double fx,
+                               double fy, double fz, double D, double e, double G, const double *rx,
+                               const double *nx, const double *ry, const double *ny, const double *rz,
+                               const double *nz, size_t n_B, double *out_k);
+
 static double now_ns(void)
 {
     struct timespec t;
@@ -56,7 +65,7 @@ int main(int argc, char **argv)
     long calls = argc > 2 ? atol(argv[1]) : 1000, batches = argc > 2 ? atol(argv[2]) : 100, b, c;
     const double p[3] = {0.0, 0.0, 0.0}, f[3] = {1.0, -2.0, 0.5}, fp[3] = {0.1, 0.0, -0.3};
     const double G = 1.0, D = 0.5, e = 0.0182;
-    static double step_ns[10000], bare_ns[10000];
+    static double step_ns[10000], bare_ns[10000], plain_ns[10000];
     volatile double sink = 0.0;
     sbs_ctrl2_memory memory = {0, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, 0.0};
     double k = 0.0;
@@ -77,10 +86,19 @@ int main(int argc, char **argv)
             sink += k;
         }
         bare_ns[b] = (now_ns() - t0) / (double)calls;
+        t0 = now_ns();
+        for (c = 0; c < calls; c++) {
+            plain_sbs_ctrl2_controller(p[0], p[1], p[2], fp[0], fp[1], fp[2], f[0], f[1], f[2], D, e, G,
+                                       RX, NX, RY, NY, RZ, NZ, N, &k);
+            sink += k;
+        }
+        plain_ns[b] = (now_ns() - t0) / (double)calls;
     }
     qsort(step_ns, (size_t)batches, sizeof(double), by_value);
     qsort(bare_ns, (size_t)batches, sizeof(double), by_value);
-    printf("%.17g %.17g %d %.17g\n", step_ns[batches / 2], bare_ns[batches / 2], reason, k);
+    qsort(plain_ns, (size_t)batches, sizeof(double), by_value);
+    printf("%.17g %.17g %d %.17g %.17g\n", step_ns[batches / 2], bare_ns[batches / 2], reason, k,
+           plain_ns[batches / 2]);
     return 0;
 }
 """
@@ -100,22 +118,49 @@ def planes_header(m: int, rng) -> str:
     return text
 
 
-def measure(m: int, rng, calls: int, batches: int, cc: str, work: Path) -> dict:
+PLAIN_STUB = """#include <stddef.h>
+int plain_sbs_ctrl2_controller(double px, double py, double pz, double fxp, double fyp, double fzp, double fx,
+                               double fy, double fz, double D, double e, double G, const double *rx,
+                               const double *nx, const double *ry, const double *ny, const double *rz,
+                               const double *nz, size_t n_B, double *out_k)
+{
+    (void)px; (void)py; (void)pz; (void)fxp; (void)fyp; (void)fzp; (void)fx; (void)fy; (void)fz; (void)D;
+    (void)e; (void)G; (void)rx; (void)nx; (void)ry; (void)ny; (void)rz; (void)nz; (void)n_B;
+    *out_k = 0.0;
+    return 0;
+}
+"""
+
+
+def plain_source(commit: str | None) -> str:
+    """The controller of kernel/c/sbs_ctrl2.c at `commit`, renamed (a stub without one)."""
+    if not commit:
+        return PLAIN_STUB
+    text = subprocess.run(["git", "show", f"{commit}:kernel/c/sbs_ctrl2.c"], capture_output=True, text=True,
+                          check=True, cwd=KERNEL_C).stdout
+    return text.replace('#include "sbs_ctrl2.h"', "#include <stddef.h>").replace(
+        "sbs_ctrl2_controller", "plain_sbs_ctrl2_controller")
+
+
+def measure(m: int, rng, calls: int, batches: int, cc: str, work: Path, plain: str) -> dict:
     folder = work / f"m{m}"
     folder.mkdir()
     (folder / "planes.h").write_text(planes_header(m, rng))
     (folder / "driver.c").write_text(DRIVER)
-    sources = [str(KERNEL_C / "sbs_ctrl2.c"), str(KERNEL_C / "sbs_ctrl2_fixture.c"), "driver.c"]
+    (folder / "plain.c").write_text(plain)
+    sources = [str(KERNEL_C / "sbs_ctrl2.c"), str(KERNEL_C / "sbs_ctrl2_fixture.c"), "driver.c", "plain.c"]
     flags = [f for f in CFLAGS if f != "-pedantic"]
     subprocess.run([cc, *flags, "-I", str(KERNEL_C), *sources, "-o", "bench", "-lm"], cwd=folder, check=True)
     out = subprocess.run([str(folder / "bench"), str(calls), str(batches)], capture_output=True, text=True,
                          check=True).stdout.split()
-    step_us, bare_us = float(out[0]) / 1000, float(out[1]) / 1000
+    step_us, bare_us, plain_us = float(out[0]) / 1000, float(out[1]) / 1000, float(out[4]) / 1000
     if int(out[2]) != 0:
         raise SystemExit(f"{m} planes: the step fell back (reason {out[2]}); the timing would not be the "
                          "verified path")
     row = {"boundaries": m, "step_median_us": round(step_us, 3), "controller_median_us": round(bare_us, 3),
            "k": round(float(out[3]), 6)}
+    if plain != PLAIN_STUB:
+        row["plain_float_controller_us"] = round(plain_us, 3)
     for period in PERIODS_MS:
         row[f"share_of_{period:g}ms"] = f"{step_us / (period * 1000):.2e}"
     return row
@@ -125,6 +170,7 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--calls", type=int, default=2000, help="calls per timed batch")
     ap.add_argument("--batches", type=int, default=200, help="timed batches (the median is reported)")
+    ap.add_argument("--plain-from", metavar="COMMIT", help="also time the plain float controller of COMMIT")
     args = ap.parse_args()
     cc = compiler()
     if cc is None:
@@ -133,7 +179,8 @@ def main() -> None:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for m in (1, 10, 100, 1000):
-            rows.append(measure(m, rng, max(1, args.calls // max(1, m // 10)), args.batches, cc, Path(tmp)))
+            rows.append(measure(m, rng, max(1, args.calls // max(1, m // 10)), args.batches, cc, Path(tmp),
+                                plain_source(args.plain_from)))
     record("kernel_c", rows)
 
 
