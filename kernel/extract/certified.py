@@ -24,7 +24,7 @@ HOW (the classic filtered exact predicate):
 * Filter. Every arithmetic term is evaluated in float64 together with an error bound e,
   |v - x| <= e for its real value x, by forward error analysis one operation at a time
   (`filtered.add/sub/mul/div`): inputs are exact (e = 0); a sum adds u|v| (a sum small enough
-  to underflow is exact); a product adds |a|eb + |b|ea + ea·eb, u|v| and ETA = 2^-1072 for
+  to underflow is exact); a product adds |a|eb + |b|ea + ea·eb, u|v| and ETA = 2^-1000 for
   underflow (nothing where an exact factor is 0: the product is exactly 0); a quotient adds
   (ea + |a/b| eb)/(|b| - eb) (infinite where |b| <= eb: the divisor's sign is unknown), its
   rounding and ETA. u is taken as U = 2^-52 (twice float64's unit roundoff, which also
@@ -98,7 +98,7 @@ def operation(op: str, a: tuple[str, str | None], b: tuple[str, str | None]) -> 
 
 
 def check(a: tuple[str, str | None], b: tuple[str, str | None]) -> str | None:
-    """Code of the mask where the comparison of a and b is certain (None: always)."""
+    """Code of the mask where the comparison of a and b is NOT certain (None: never)."""
     if a[1] is None and b[1] is None:
         return None
-    return f"{HELPERS}.certain({a[0]}, {a[1] or 'None'}, {b[0]}, {b[1] or 'None'})"
+    return f"{HELPERS}.uncertain({a[0]}, {a[1] or 'None'}, {b[0]}, {b[1] or 'None'})"
