@@ -7,18 +7,22 @@ What conformance means, and what is checked here. The C kernel is float-sound: e
 its careful pass (error-free transformations) cannot certify one it returns -1, UNDECIDED,
 and takes no decision (the caller falls back). So:
   * DECISIONS, bit for bit: wherever C decides, its decision equals the model's in the reals,
-    hence the Python kernel's (whose floats, on the same expression trees, compare the same
-    way wherever the bound certifies the sign) and the exact interpreter's. Checked on
-    10,000 random ctrl2 scenes and 1,000 random states per other model against the Python
-    kernel, on scenes against the interpreter run with exact rationals, and by hypothesis with
-    extreme magnitudes (subnormals, 1e±300, the issue's 2.1e-162 normal).
-  * UNDECIDED states are counted: none on the scenes inside the model's assumptions (the
-    careful pass certifies exact ties such as a tool exactly on a plane), and each one the
-    tests meet is a near-tie or an overflow (checked: the exact interpreter's values there
-    are within the bound, or the floats overflowed).
-  * OUTPUTS: the float the Python kernel computes rounded down by the bound (the contract of
-    `certified`: a float <= the real value, within 2^-20 relative): C's output is <= the
-    Python kernel's and <= the exact value, and equal to them where the value is exact.
+    hence the float-sound Python kernel's. Checked on 2,500 random ctrl2 scenes (10,000 with
+    -m slow) and 1,400 random states per other model (over 10,000 states in the quick run)
+    against the Python kernel, with the model run in exact rationals as the arbiter where the
+    two differ (it has sided with C every time; the one Python error found is an xfail test
+    below); on scenes against the exact interpreter directly; by hypothesis with extreme
+    magnitudes (subnormals, 1e±300, the issue's 2.1e-162 normal).
+  * UNDECIDED states: none on scenes inside the model's assumptions nor on ordinary states
+    (no ties, no extreme magnitudes), except a model whose outputs are 0 by cancellation
+    (rcm.nullspace); in the closed-loop fixture test, only where the plant's rounding left
+    the tool on a plane up to 1e-12 (checked for each one).
+  * OUTPUTS: the float computed, rounded down by its bound (the contract of `certified`: a
+    float <= the real value, within 2^-20 relative). Where the Python kernel's float pass
+    decides alone, C's is the same arithmetic (kfloat's filter: same formulas, constants and
+    order), so k and enabled are identical BIT FOR BIT (checked on every such ctrl2 state);
+    elsewhere (Python's exact path, C's careful pass) the two are lower bounds of the same
+    real value within 2^-20 of it; against the exact interpreter C's gain is <= the real one.
 The C tests are skipped, with the reason, where no C compiler is installed.
 """
 
@@ -90,10 +94,11 @@ def same(a, b) -> bool:
     return a == b
 
 
-def below(c, py) -> bool:
-    """C's output is the Python's float rounded down by at most the bound (equal if exact)."""
-    if isinstance(c, float) and isinstance(py, float):
-        return c <= py and py - c <= TIGHT * abs(py) * (1 + 2.0 ** -30) + 2.0 ** -1060
+def close(c, py) -> bool:
+    """Two lower bounds of the same real value, each within 2^-20 relative of it (the Python
+    may have taken its exact path, C its careful pass: they need not be the same float)."""
+    if isinstance(c, (float, np.floating)) and isinstance(py, (float, np.floating)):
+        return abs(float(c) - float(py)) <= 2 * TIGHT * abs(float(py)) * (1 + 2.0 ** -30) + 2.0 ** -1000
     return same(c, py)
 
 
@@ -103,7 +108,7 @@ def agrees(c_result, py_result, undecided: bool) -> bool:
         return True
     *c_out, c_en = c_result
     *p_out, p_en = py_result
-    return c_en == p_en and (not c_en or all(below(x, y) for x, y in zip(c_out, p_out)))
+    return c_en == p_en and (not c_en or all(close(x, y) for x, y in zip(c_out, p_out)))
 
 
 # ------------------------------------------------------------------ build, symbols, header
@@ -162,7 +167,8 @@ def _random_args(name: str, rng, n: int | None = None) -> list:
     ns = python(name)
     m = int(rng.integers(0, 6)) if n is None else n
     unit = rng.random() < 1 / 3
-    args = [1.0 - rng.random() if unit else _scalar(rng) for _ in ns["INPUTS"]]
+    # numpy scalars: the Python kernel divides Python floats by a zero G with ZeroDivisionError
+    args = [np.float64(1.0 - rng.random() if unit else _scalar(rng)) for _ in ns["INPUTS"]]
     for fam in ns["FAMILIES"]:
         if fam.startswith("active"):
             args.append(rng.random(m) < 0.7)
@@ -194,17 +200,28 @@ def _ctrl2_args(scene) -> list:
     return [*p, *fp, *f, D, e, G, *fams]
 
 
-def test_ctrl2_same_gain_as_the_python_kernel_on_10000_scenes(folder):
+@pytest.mark.parametrize("runs", [2_500, pytest.param(10_000, marks=pytest.mark.slow)])
+def test_ctrl2_same_gain_as_the_python_kernel(folder, runs):
     c, py = kernel("sbs.ctrl2", folder), python("sbs.ctrl2")["controller"]
+    filtered = python("sbs.ctrl2")["_filtered"]  # the Python kernel's float pass alone
     rng = np.random.default_rng(19)
-    enabled = undecided_in_scenes = 0
-    for n in range(10_000):
+    enabled = undecided_in_scenes = identical = 0
+    for n in range(runs):
         args = _ctrl2_args(_ctrl2_scene(rng)) if n % 4 else _random_args("sbs.ctrl2", rng)
         got, want = c(*args), py(*args)
         assert agrees(got, want, c.undecided), (args, got, want)
+        with np.errstate(all="ignore"):
+            ok = np.all(filtered(*args)[2])
+        if ok and all(np.all(np.isfinite(a)) for a in args):
+            # the Python's filter decided alone: C's filter is the same arithmetic, so the same
+            # result bit for bit
+            assert not c.undecided and got[1] == want[1] and (not want[1] or same(got[0], want[0])), \
+                (args, got, want)
+            identical += 1
         enabled += want[-1]
         undecided_in_scenes += c.undecided and n % 4 != 0
-    assert enabled > 7_000  # the scenes are inside the assumptions: nearly all have a run
+    assert identical > runs // 4
+    assert enabled > 0.7 * runs  # the scenes are inside the assumptions: nearly all have a run
     assert undecided_in_scenes == 0, "C left a scene inside the assumptions undecided"
 
 
@@ -213,10 +230,15 @@ def test_same_as_the_python_kernel_on_random_states(name, folder):
     c, py = kernel(name, folder), python(name)["controller"]
     rng = np.random.default_rng(sum(map(ord, name)))
     outcomes, undecided = set(), 0
-    for _ in range(1_000):
+    for _ in range(1_200):
         args = _random_args(name, rng)
         got, want = c(*args), py(*args)
-        assert agrees(got, want, c.undecided), (name, args, got, want)
+        if not c.undecided and got[-1] != want[-1]:
+            # C and the Python kernel decide differently: the model in exact rationals arbitrates
+            assert got[-1] == exact_enabled(name, args), (name, args, got, want)
+            PYTHON_DISAGREES.append((name, args))
+        else:
+            assert agrees(got, want, c.undecided), (name, args, got, want)
         outcomes.add(got[-1])
         undecided += c.undecided
     assert True in outcomes, f"{name}: no random state had a run; the comparison saw only fallbacks"
@@ -229,7 +251,64 @@ def test_same_as_the_python_kernel_on_random_states(name, folder):
                  for fam in python(name)["FAMILIES"]]
         got, want = c(*args), py(*args)
         assert not c.undecided, (name, args)
-        assert agrees(got, want, False), (name, args, got, want)
+        if got[-1] != want[-1]:  # the exact model arbitrates (see above)
+            assert got[-1] == exact_enabled(name, args), (name, args, got, want)
+            PYTHON_DISAGREES.append((name, args))
+        else:
+            assert agrees(got, want, False), (name, args, got, want)
+
+
+PYTHON_DISAGREES: list = []  # states where the Python kernel's decision is not the reals' (C's is)
+
+
+def exact_enabled(name: str, args) -> bool:
+    """Whether the model's step has a run from these inputs, run in exact rationals."""
+    ns = python(name)
+    values = dict(zip(ns["INPUTS"] + ns["FAMILIES"], args))
+    state: dict = {}
+    for v, x in values.items():
+        if isinstance(x, np.ndarray):
+            state["#universe:B"] = range(len(x))
+            state[v] = Table({(j,): bool(y) if x.dtype == bool else Fraction(float(y))
+                              for j, y in enumerate(x)})
+        else:
+            state[v] = Fraction(float(x))
+    step = step_theorem(name, drop=("active_next",) if name == "sbs.ctrl2_dynamic" else ())
+    try:
+        Interpreter(step, exact=True).run(FirstEnabled(), state, checked=True)
+    except Blocked:
+        return False
+    return True
+
+
+def _activating_a_boundary_the_tool_is_past() -> list:
+    """A state found by the random comparison: boundary 0 is requested active while the tool
+    is past it (d0 < 0), with subnormal normal components."""
+    scalars = (-3.0, 5.310666252198924, 2.084205584942599e-308, 2.067574728534809e-308, 2.0,
+               -1.992368153327908e-308, -7.908004965820517, 9.510086834753572, 6.50951352239931, 0.0,
+               -2.1002524132950384, -7.098372313540664)
+    return [*map(np.float64, scalars),
+            np.array([True, True, False, True]), np.array([False, True, True, True]),
+            np.array([-0.38297086, -3.0, -2.32107925, -2.0]), np.array([3.87099255, 1.0, 0.0, -3.0052821]),
+            np.array([6.61509299, 8.53559365, 2.0, 1.83225774e-177]),
+            np.array([1.63451657e-308, 4.76011902e-309, 2.21747438e-308, -4.66738285e-231]),
+            np.array([-7.95338959, 1.0, -2.0, 0.54386779]),
+            np.array([-3.35766285, 5.79119582, 1.07167634, 3.14459269])]
+
+
+def test_c_refuses_activating_a_boundary_the_tool_is_past(folder):
+    args = _activating_a_boundary_the_tool_is_past()
+    assert exact_enabled("sbs.ctrl2_dynamic", args) is False
+    c = kernel("sbs.ctrl2_dynamic", folder)
+    assert c(*args)[-1] is False and not c.undecided
+
+
+@pytest.mark.xfail(strict=True, reason="the Python kernel (kfloat, 3996874) lets ctrl2_dynamic activate a "
+                   "boundary the tool is past here (subnormal normal components); C and the exact "
+                   "interpreter refuse it")
+def test_python_kernel_refuses_activating_a_boundary_the_tool_is_past():
+    args = _activating_a_boundary_the_tool_is_past()
+    assert python("sbs.ctrl2_dynamic")["controller"](*args)[-1] is False
 
 
 # outputs that are 0 in the reals by cancellation (A_x Z_x^T = 0): a 0 reached by rounding cannot
@@ -250,7 +329,7 @@ def test_ctrl2_extreme_magnitudes_same_as_python(tmp_path_factory, scalars, plan
     folder = tmp_path_factory.getbasetemp() / "c_kernels_hyp"
     c, py = kernel("sbs.ctrl2", folder), python("sbs.ctrl2")["controller"]
     fams = [np.array([row[k] for row in planes]) for k in range(6)]
-    args = [*scalars, *fams]
+    args = [*map(np.float64, scalars), *fams]  # Python floats: the Python kernel raises on 1/0
     got, want = c(*args), py(*args)
     assert agrees(got, want, c.undecided), (args, got, want)
 
@@ -457,7 +536,7 @@ def test_c_fixture_step_same_as_the_python_fixture(c_fixture):
                 break  # C stopped the tool, Python did not: the two runs part here
             assert (reason == 0) == want.ok, (reason, want.reason)
             if want.ok:
-                assert below(k.value, want.k)  # the certified gain: rounded down by its bound
+                assert close(k.value, want.k)  # both certified gains: rounded down by their bounds
                 passed += 1
                 kx = want.k  # the tool moves as the model says
                 p = p + G * kx * (f * e + fp * e * e / 2)

@@ -17,7 +17,7 @@ typedef struct { double v, e; int exact; } cl_real;
 #endif
 
 #define CL_U 0x1p-52                  /* filtered.U */
-#define CL_ETA 0x1p-1072              /* filtered.ETA */
+#define CL_ETA 0x1p-1000              /* filtered.ETA (far above underflow: bounds stay normal numbers) */
 #define CL_INFL (1.0 + 0x1p-40)       /* filtered.INFL */
 #define CL_TIGHT 0x1p-20              /* filtered.TIGHT */
 #define CL_EFT_MIN 0x1p-900           /* above this, a rounding residual is representable */
@@ -156,7 +156,10 @@ CL_INLINE int cl_tight(cl_real x)
     return x.e * CL_INFL <= fabs(x.v) * CL_TIGHT && isfinite(x.v);
 }
 
-CL_INLINE double cl_lower(cl_real x) { return x.exact ? x.v : nextafter(x.v - x.e * CL_INFL, -INFINITY); }
+CL_INLINE double cl_lower(cl_real x)
+{
+    return (x.exact || x.e == 0) ? x.v : nextafter(x.v - x.e * CL_INFL, -INFINITY);
+}
 
 /* one pass of the step: returns 1 (a run), 0 (no run), -1 (undecided) or, in the filter pass, -2 (run the careful pass) */
 CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, double fxp, double fyp, double fzp, double fx, double fy, double fz, double D, double e, double G, const double *rx, const double *nx, const double *ry, const double *ny, const double *rz, const double *nz, size_t n_B, double *out_k)
