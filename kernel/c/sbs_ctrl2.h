@@ -20,9 +20,11 @@
 #define SBS_CTRL2_OUTPUTS "k"
 
 /* Writes *out_k -- the values the verified model computes for this state (where several
-   alternatives of a choice are enabled, the first in the model's order) -- and returns 1;
-   returns 0 where the model has no run (no enabled alternative, a failed test, or an output
-   that overflowed): scalar outputs are then NaN and the caller must fall back. Families are
+   alternatives of a choice are enabled, the first in the model's order), real outputs rounded
+   down to a float <= the real value -- and returns 1. Returns 0 where the model has no run (no
+   enabled alternative, a failed test) or an input is not finite, and -1 (UNDECIDED) where the
+   floats cannot certify a decision (a near-tie, an overflow): scalar outputs are then NaN and
+   the caller must fall back. Every decision taken is the model's in the reals. Families are
    arrays of n_B elements (Bool families: one byte each, non-zero = true). */
 int sbs_ctrl2_controller(double px, double py, double pz, double fxp, double fyp, double fzp, double fx, double fy, double fz, double D, double e, double G, const double *rx, const double *nx, const double *ry, const double *ny, const double *rz, const double *nz, size_t n_B, double *out_k);
 

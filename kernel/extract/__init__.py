@@ -55,8 +55,10 @@ The package, one job a module (no module imports one listed after it):
   * vectorised — the numpy code over a family of boundaries;
   * scalar — the plain Python code (`if`/`elif`, `for` loops);
   * generate — `extract`: choose the shape, generate, name the model in every refusal;
-  * c_syntax, c_family, c_scalar, c — `extract_c` (`--lang c`): the same walk written as C99,
-    a `for` loop over the boundaries for a family, `if`/`else if` chains for choices;
+  * c_syntax, c_certified, c_family, c_scalar, c — `extract_c` (`--lang c`): the same walk
+    written as C99 (a `for` loop over the boundaries for a family, `if`/`else if` chains for
+    choices), every decision certified by the filter of `certified` (three-valued, UNDECIDED
+    where the floats cannot decide);
   * c_build — tooling: compile a C kernel and call it through ctypes (tests, benchmarks);
   * shipped — the shipped kernels (SHIPPED, SHIPPED_C) and `shipped_drift`.
 """

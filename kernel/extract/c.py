@@ -7,15 +7,16 @@ The entry function has the Python kernel's semantics (see the package docstring)
 
 scalar inputs in the Python order (INPUTS), then the families (FAMILIES) as pointers, then one
 length per index sort (`n_B`: every family over B has that many elements), then one pointer
-per output. It returns 1 (enabled) and writes the outputs, or returns 0 where the model has
-no run (no enabled alternative, a failed test, an output that overflowed to inf/NaN) and
-writes NaN to every scalar output: the caller must fall back. No allocation, no globals,
-libm only; the header pins the model's content hash (`SBS_CTRL2_MODEL_HASH`).
+per output. It returns 1 (a run) and writes the outputs; 0 where the model has no run (no
+enabled alternative, a failed test) or an input is not finite; -1 (UNDECIDED) where the floats
+cannot certify a decision (see c_certified); on 0 and -1 every scalar output is NaN and the
+caller must fall back. No allocation, no globals, libm only; the header pins the model's
+content hash (`SBS_CTRL2_MODEL_HASH`).
 
-Conformance: every decision (which alternative, enabled) is the Python kernel's bit for bit,
-because both evaluate the same expression trees with the same IEEE double operations (compile
-with `-ffp-contract=off`, see c_syntax.CFLAGS). Outputs are equal bit for bit too, except
-that a zero may differ in sign (min over ±0)."""
+Decisions are float-sound (c_certified): wherever C decides, the decision is the model's in
+the reals, so the float-sound Python kernel's; where the Python kernel's float pass decides
+alone, C runs the same filter and its outputs are the Python's bit for bit. Compile with
+`-ffp-contract=off` (c_syntax.CFLAGS): the bounds assume one rounding per operation."""
 
 from __future__ import annotations
 
@@ -151,9 +152,12 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
 def _doc(outputs, families, sizes) -> str:
     outs = ", ".join(f"*out_{v}" for v, _ in outputs)
     text = (f"/* Writes {outs} -- the values the verified model computes for this state (where several "
-            "alternatives of a choice are enabled, the first in the model's order) -- and returns 1; "
-            "returns 0 where the model has no run (no enabled alternative, a failed test, or an output "
-            "that overflowed): scalar outputs are then NaN and the caller must fall back.")
+            "alternatives of a choice are enabled, the first in the model's order), real outputs "
+            "rounded down to a float <= the real value -- and returns 1. Returns 0 where the model has "
+            "no run (no enabled alternative, a failed test) or an input is not finite, and -1 "
+            "(UNDECIDED) where the floats cannot certify a decision (a near-tie, an overflow): scalar "
+            "outputs are then NaN and the caller must fall back. Every decision taken is the "
+            "model's in the reals.")
     if families:
         text += (f" Families are arrays of {' / '.join(sizes)} elements (Bool families: one byte each, "
                  "non-zero = true).")
