@@ -320,25 +320,25 @@ def _exact(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, n
     case_ff10 = t13  # ff10 stuck (d0 <= 0)
     u = np.where(case_ff1, u_ff1, np.where(case_ff2, u_ff2, np.where(case_ff3, u_ff3, np.where(case_ff4, u_ff4, np.where(case_ff5, u_ff5, np.where(case_ff6, u_ff6, np.where(case_ff7, u_ff7, np.where(case_ff8, u_ff8, np.where(case_ff9, u_ff9, np.where(case_ff10, u_ff10, _f.NAN))))))))))
     enabled &= case_ff1 | case_ff2 | case_ff3 | case_ff4 | case_ff5 | case_ff6 | case_ff7 | case_ff8 | case_ff9 | case_ff10
-    dist = (d0 + (G * u * ((fn * e) + (fnp * (e ** 2) * _F(1, 2)))))
-    disc = (((G * u * fn) ** 2) + (-(_F(2) * G * u * fnp * d0)))
+    dist = (d0 + (G * u * ((fn * e) + (fnp * (e * e) * _F(1, 2)))))
+    disc = (((G * u * fn) * (G * u * fn)) + (-(_F(2) * G * u * fnp * d0)))
     # choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away
     t14 = (dist >= _F(0))
     t15 = (G != _F(0))
     case_sa = t12 & t14 & t15  # sa fnp<=0, clear
     t16 = (dist <= _F(0))
-    t17 = (((G * fn * e) + _f.xdiv((G * fnp * (e ** 2)), _F(2))) != _F(0))
-    tmp_se = _f.xdiv(_F(1), ((G * fn * e) + _f.xdiv((G * fnp * (e ** 2)), _F(2))))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+    t17 = (((G * fn * e) + _f.xdiv((G * fnp * (e * e)), _F(2))) != _F(0))
+    tmp_se = _f.xdiv(_F(1), ((G * fn * e) + _f.xdiv((G * fnp * (e * e)), _F(2))))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
     case_se = t12 & t16 & t17  # se fnp<=0, would cross
     t18 = (disc <= _F(0))
     case_sb = t4 & t7 & t18 & t15  # sb turns back, disc<=0
     t19 = (disc >= _F(0))
     t20 = ((fn + (fnp * e)) >= _F(0))
-    t21 = ((G * (fn ** 2)) != _F(0))
-    tmp_sf = _f.xdiv(_F(1), (G * (fn ** 2)))  # from tmp*G*fn[i]^2 = 1
+    t21 = ((G * (fn * fn)) != _F(0))
+    tmp_sf = _f.xdiv(_F(1), (G * (fn * fn)))  # from tmp*G*fn[i]^2 = 1
     case_sf = t4 & t7 & t19 & t20 & t21  # sf turns within step
     t22 = ((fn + (fnp * e)) <= _F(0))
-    tmp_sg = _f.xdiv(_F(1), ((G * fn * e) + _f.xdiv((G * fnp * (e ** 2)), _F(2))))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+    tmp_sg = _f.xdiv(_F(1), ((G * fn * e) + _f.xdiv((G * fnp * (e * e)), _F(2))))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
     case_sg = t4 & t7 & t19 & t22 & t16 & t17  # sg still inward, would cross
     case_sc = t4 & t7 & t19 & t22 & t14 & t15  # sc still inward, clear
     case_sd = t4 & t5 & t15  # sd away

@@ -56,7 +56,12 @@ The package, one job a module (no module imports one listed after it):
   * vectorised — the numpy code over a family of boundaries;
   * scalar — the plain Python code (`if`/`elif`, `for` loops);
   * generate — `extract`: choose the shape, generate, name the model in every refusal;
-  * shipped — the shipped kernels (SHIPPED) and `shipped_drift`;
+  * shipped — the shipped kernels (SHIPPED, SHIPPED_C) and `shipped_drift`;
+  * c_syntax, c_certified, c_family, c_scalar, c — `extract_c` (`--lang c`): the same walk
+    written as C99 (a `for` loop over the boundaries for a family, `if`/`else if` chains for
+    choices), every decision certified by the filter of `certified` (three-valued, UNDECIDED
+    where the floats cannot decide);
+  * c_build — tooling: compile a C kernel and call it through ctypes (tests, benchmarks);
   * monitor_terms — what the monitors share: MonitorError, a term as Python over a dict;
   * modelplex_family — the controller monitor of a step over a family of boundaries;
   * modelplex — `monitors(theorem)`: the ModelPlex-style controller and plant monitors of an
@@ -66,6 +71,6 @@ The package, one job a module (no module imports one listed after it):
 from certiloop.kernel.extract.analysis import controller
 from certiloop.kernel.extract.errors import ExtractError
 from certiloop.kernel.extract.generate import extract
-from certiloop.kernel.extract.shipped import SHIPPED, shipped_drift
+from certiloop.kernel.extract.shipped import SHIPPED, SHIPPED_C, shipped_drift
 
-__all__ = ["SHIPPED", "ExtractError", "controller", "extract", "shipped_drift"]
+__all__ = ["SHIPPED", "SHIPPED_C", "ExtractError", "controller", "extract", "shipped_drift"]

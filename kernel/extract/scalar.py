@@ -22,7 +22,7 @@ from certiloop.kernel.extract.analysis import (
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _Root, _solutions
 from certiloop.kernel.extract.shapes import _elementwise, _is_annotation, _latches, _pins_first
-from certiloop.kernel.extract.template import ENTRY, HEADER, RESERVED, SCALAR, _check_names, _tag
+from certiloop.kernel.extract.template import ENTRY, HEADER, RESERVED, SCALAR, _check_names, _power, _tag
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -145,7 +145,7 @@ class _Python:
                 return f"(-{a[0]})"
             if op == "/":
                 return f"({a[0]} / {a[1]})"
-            return a[0] if n.payload == 1 else f"({a[0]} ** {n.payload})"
+            return _power(a[0], n.payload)
         if op == "forall" and self.elementwise is None and len(n.payload) == 1 \
                 and _is_index_sort(n.payload[0].sort):
             return self.over_family(n, subst)

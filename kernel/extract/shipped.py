@@ -1,12 +1,14 @@
 """The kernels this package ships, generated from their models (SHIPPED: model -> module
-in `certiloop.kernel`), and `shipped_drift`, which says whether a shipped module is still
-byte-for-byte a fresh extraction of its model (the gate fails when it is not)."""
+in `certiloop.kernel`; SHIPPED_C: model -> its C kernel in `kernel/c/`), and `shipped_drift`,
+which says whether a shipped kernel (Python, and C where there is one) is still byte-for-byte
+a fresh extraction of its model (the gate fails when it is not)."""
 
 from __future__ import annotations
 
 from certiloop.kernel.extract.generate import extract
 
 SHIPPED = {"sbs.ctrl2": "ctrl2.py"}  # model -> module in certiloop.kernel generated from it
+SHIPPED_C = {"sbs.ctrl2": "c"}  # model -> folder of certiloop.kernel holding its C kernel
 
 
 def shipped_drift(model: str) -> str:
@@ -22,4 +24,20 @@ def shipped_drift(model: str) -> str:
     if path.read_text() != fresh:
         return (f"{path.name} differs from a fresh extraction of {model}: the model changed since it was "
                 f"extracted; run `certiloop extract {model} -o kernel/{path.name}`")
+    return shipped_c_drift(model) if model in SHIPPED_C else ""
+
+
+def shipped_c_drift(model: str) -> str:
+    """"" if the shipped C kernel of `model` is exactly a fresh `extract_c`, else why not."""
+    from pathlib import Path
+
+    from certiloop.kernel.extract.c import extract_c
+    from certiloop.models import library
+
+    folder = Path(__file__).parent.parent / SHIPPED_C[model]
+    for name, text in extract_c(library.get(model)).items():
+        path = folder / name
+        if not path.exists() or path.read_text() != text:
+            return (f"kernel/{SHIPPED_C[model]}/{name} is not a fresh C extraction of {model}; run "
+                    f"`certiloop extract {model} --lang c -o kernel/{SHIPPED_C[model]}`")
     return ""

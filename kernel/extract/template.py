@@ -52,6 +52,21 @@ RESERVED = set(keyword.kwlist) | {"np", "operator", "enabled", "taken", "skipped
                                   "bool", "range", "max", "MODEL", "MODEL_HASH", "INPUTS", "FAMILIES"}
 
 
+MAX_POWER = 8  # x^n up to this n is written as n - 1 multiplications
+
+
+def _power(base: str, n: int) -> str:
+    """x^n as repeated multiplication, (x * x * x) left to right: each product is one IEEE
+    operation, so every back end (numpy, CPython, C) rounds it the same way and its error is
+    easy to bound. `x ** 2` is not: CPython and numpy scalars call libm pow (not always the
+    correctly rounded x*x), numpy arrays square, and C compilers fold pow(x, 2) into x*x."""
+    if n == 1:
+        return base
+    if 2 <= n <= MAX_POWER:
+        return "(" + " * ".join([base] * n) + ")"
+    return f"({base} ** {n})"
+
+
 def _tag(label: str, k: int) -> str:
     word = re.sub(r"[^0-9a-zA-Z_]", "_", label.split()[0]) if label.split() else ""
     return word if word and not word[0].isdigit() else f"alt{k + 1}"

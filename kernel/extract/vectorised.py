@@ -13,7 +13,7 @@ from certiloop.kernel.extract import certified
 from certiloop.kernel.extract.analysis import _conjuncts, _is_index_sort, _mentions, _outputs, _sort_of, _Step
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _solve
-from certiloop.kernel.extract.template import ENTRY, HEADER, VECTORISED, _check_names, _tag
+from certiloop.kernel.extract.template import ENTRY, HEADER, VECTORISED, _check_names, _power, _tag
 from certiloop.models.lang.programs import Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import BOOL, REAL, Node
 from certiloop.models.lang.theorem import Theorem
@@ -105,7 +105,7 @@ class _Emitter:
                 return f"np.divide({a[0]}, {a[1]})"  # two Python floats: inf, not ZeroDivisionError
             return f"({a[0]} / {a[1]})"
         if op == "^":
-            return a[0] if n.payload == 1 else f"({a[0]} ** {n.payload})"
+            return _power(a[0], n.payload)
         if op == "cmp":
             text = f"({a[0]} {n.payload} {a[1]})"
             if any(_mentions(n, v) for v in subst):

@@ -77,10 +77,15 @@ def build_parser() -> argparse.ArgumentParser:
     extract = sub.add_parser(
         "extract", help="generate runtime code from a verified model's controller",
         description="Generate a numpy module computing the controller of MODEL (vectorised over "
-        "its family of boundaries) from the model's syntax tree. The module carries the model's "
-        "content hash; the kernel refuses to run with a model that changed since.")
+        "its family of boundaries) from the model's syntax tree, or with --lang c a C99 source and "
+        "header. The code carries the model's content hash; the kernel refuses to run with a model "
+        "that changed since.")
     extract.add_argument("model", metavar="MODEL", help="library name (sbs.ctrl2) or path/to/file.py:theorem")
-    extract.add_argument("-o", "--output", metavar="FILE", help="write the module to FILE (default: stdout)")
+    extract.add_argument("-o", "--output", metavar="FILE|DIR", help="write the module to FILE (default: "
+                         "stdout); with --lang c, the folder DIR gets MODEL.c and MODEL.h")
+    extract.add_argument("--lang", choices=("python", "c"), default="python",
+                         help="python (default): a numpy module; c: C99 source and header, no allocation, "
+                         "libm only")
     extract.add_argument("--cache", metavar="DIR", help="proof cache folder (default .certiloop/cache, "
                          "or $CERTILOOP_CACHE): a model proved there under this exact claim is not re-proved")
     extract.add_argument("--no-cache", action="store_true", help="prove the model afresh")
@@ -470,8 +475,14 @@ def cmd_extract(args: argparse.Namespace) -> int:
     """Extract only what is proved: the model must prove now, or have a cache entry for its
     exact claim (canonical text, certiloop source, z3 and sympy versions)."""
     _check_common(args)
-    _check_outputs(("--output", args.output, "file"), ("--cache", args.cache, "folder"))
+    if args.lang == "c" and args.monitors:
+        raise BadInput("--monitors writes the Python monitors; leave out --lang c")
+    if args.lang == "c" and not args.output:
+        raise BadInput("--lang c writes two files (MODEL.c and MODEL.h); give the folder with -o DIR")
+    _check_outputs(("--output", args.output, "folder" if args.lang == "c" else "file"),
+                   ("--cache", args.cache, "folder"))
     from certiloop.kernel.extract import extract
+    from certiloop.kernel.extract.c import extract_c
     from certiloop.proofs.cli import ui
     from certiloop.proofs.cli.loading import load
     from certiloop.proofs.cli.report import show_result
@@ -500,6 +511,16 @@ def cmd_extract(args: argparse.Namespace) -> int:
         print(f"certiloop: error: refusing to extract {theorem.name}: it is {verdict}, not proved{why}",
               file=sys.stderr)
         return EXIT_FAILED
+    if args.lang == "c":
+        files = extract_c(theorem)
+        folder = Path(args.output)
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, text in files.items():
+            (folder / name).write_text(text)
+        if level > ui.QUIET:
+            ui.say(err, f"wrote {', '.join(str(folder / n) for n in files)} (from the proved model "
+                   f"{theorem.name})")
+        return EXIT_OK
     if args.monitors:
         from certiloop.kernel.extract.modelplex import monitors
 

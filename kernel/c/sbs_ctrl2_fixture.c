@@ -1,0 +1,142 @@
+/* The virtual-fixture step in C (see sbs_ctrl2_fixture.h): monitor.check_inputs,
+   monitor.check_motion, the generated controller, monitor.check_command and the fallback
+   k = 0, in the order and with the arithmetic of fixture.VirtualFixture.step. Every
+   expression is written in the Python's evaluation order (left to right), so the monitor's
+   decisions agree with the Python kernel except within a rounding of its thresholds (numpy
+   may sum the dot products n.f in another order). */
+#include <math.h>
+
+#include "sbs_ctrl2_fixture.h"
+
+/* np.minimum: NaN wins (so a NaN distance passes `worst < -tol` exactly as in Python) */
+static double min_keep_nan(double a, double b)
+{
+    if (isnan(a) || isnan(b))
+        return NAN;
+    return a < b ? a : b;
+}
+
+static int finite3(const double v[3])
+{
+    return isfinite(v[0]) && isfinite(v[1]) && isfinite(v[2]);
+}
+
+static double distance(const double p[3], const double *rx, const double *ry, const double *rz,
+                       const double *nx, const double *ny, const double *nz, size_t i)
+{
+    return (p[0] - rx[i]) * nx[i] + (p[1] - ry[i]) * ny[i] + (p[2] - rz[i]) * nz[i];
+}
+
+static int check_inputs(const double p[3], const double f[3], const double fp[3],
+                        const double *rx, const double *ry, const double *rz,
+                        const double *nx, const double *ny, const double *nz, size_t n,
+                        double G, double D, double e)
+{
+    size_t i;
+    int worst = SBS_CTRL2_OK;
+    if (!finite3(p) || !finite3(f) || !finite3(fp))
+        return SBS_CTRL2_INPUT_NOT_FINITE;
+    if (!(isfinite(G) && G > 0) || !(isfinite(D) && D > 0) || !(isfinite(e) && e > 0))
+        return SBS_CTRL2_PARAMETER;
+    /* one pass over the planes; the reason reported is the Python's (its checks run one after
+       the other over every plane: non-finite planes first, then lengths, then distances) */
+    for (i = 0; i < n; i++) {
+        double length2 = nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i];
+        double d0 = distance(p, rx, ry, rz, nx, ny, nz, i);
+        if (!(isfinite(rx[i]) && isfinite(ry[i]) && isfinite(rz[i]) && isfinite(nx[i]) && isfinite(ny[i])
+              && isfinite(nz[i])))
+            return SBS_CTRL2_PLANE_NOT_FINITE;
+        if (fabs(length2 - 1.0) > SBS_CTRL2_UNIT_TOLERANCE)
+            worst = SBS_CTRL2_NORMAL_NOT_UNIT; /* outranks a distance */
+        if (d0 < -SBS_CTRL2_RELATIVE_TOLERANCE * (1 + fabs(d0)))
+            worst = worst == SBS_CTRL2_OK ? SBS_CTRL2_PAST_BOUNDARY : worst;
+    }
+    return worst;
+}
+
+static int check_motion(const sbs_ctrl2_memory *m, const double p[3], double G, double dt, double tolerance)
+{
+    double error = 0.0;
+    int a;
+    if (!m->has_previous)
+        return SBS_CTRL2_OK;
+    for (a = 0; a < 3; a++) {
+        double predicted = m->p[a] + G * m->k * (m->f[a] * dt + m->fp[a] * dt * dt / 2);
+        double gap = fabs(p[a] - predicted);
+        if (isnan(gap) || gap > error)
+            error = gap; /* np.max keeps a NaN */
+    }
+    return error > tolerance ? SBS_CTRL2_MOTION : SBS_CTRL2_OK;
+}
+
+static int check_command(double k, const double p[3], const double f[3], const double fp[3],
+                         const double *rx, const double *ry, const double *rz,
+                         const double *nx, const double *ny, const double *nz, size_t n,
+                         double G, double e)
+{
+    size_t i;
+    if (!(isfinite(k) && 0.0 <= k && k <= 1.0))
+        return SBS_CTRL2_COMMAND;
+    for (i = 0; i < n; i++) {
+        double d0 = distance(p, rx, ry, rz, nx, ny, nz, i);
+        double fn = nx[i] * f[0] + ny[i] * f[1] + nz[i] * f[2];
+        double fnp = nx[i] * fp[0] + ny[i] * fp[1] + nz[i] * fp[2];
+        double tol = SBS_CTRL2_RELATIVE_TOLERANCE * (1 + fabs(d0) + G * fabs(fn) * e + G * fabs(fnp) * e * e);
+        double at_end = d0 + G * k * (fn * e + fnp * e * e / 2);
+        double at_vertex = INFINITY;
+        double vertex_t = fnp > 0 ? -fn / fnp : -1.0;
+        if (vertex_t > 0 && vertex_t < e)
+            at_vertex = d0 + G * k * (fn * vertex_t + fnp * (vertex_t * vertex_t) / 2);
+        if (min_keep_nan(min_keep_nan(d0, at_end), at_vertex) < -tol)
+            return SBS_CTRL2_COMMAND;
+    }
+    return SBS_CTRL2_OK;
+}
+
+static int fall_back(int reason, const double p[3], sbs_ctrl2_memory *memory, double *k)
+{
+    int a;
+    memory->has_previous = finite3(p);
+    for (a = 0; a < 3; a++) {
+        memory->p[a] = p[a];
+        memory->f[a] = memory->fp[a] = 0.0;
+    }
+    memory->k = 0.0;
+    *k = 0.0; /* the tool stops where it is, which no boundary can object to */
+    return reason;
+}
+
+int sbs_ctrl2_fixture_step(const double p[3], const double f[3], const double fp[3],
+                           const double *rx, const double *ry, const double *rz,
+                           const double *nx, const double *ny, const double *nz, size_t n,
+                           double G, double D, double e, double dt, double position_tolerance,
+                           sbs_ctrl2_memory *memory, double *k)
+{
+    double gain;
+    int a, enabled;
+    int verdict = check_inputs(p, f, fp, rx, ry, rz, nx, ny, nz, n, G, D, e);
+    if (verdict == SBS_CTRL2_OK)
+        verdict = check_motion(memory, p, G, dt, position_tolerance);
+    if (verdict != SBS_CTRL2_OK)
+        return fall_back(verdict, p, memory, k);
+    enabled = sbs_ctrl2_controller(p[0], p[1], p[2], fp[0], fp[1], fp[2], f[0], f[1], f[2], D, e, G,
+                                   rx, nx, ry, ny, rz, nz, n, &gain);
+    if (-SBS_CTRL2_ROUNDING <= gain && gain < 0)
+        gain = 0.0; /* -d0*tmp for a tool on a plane up to rounding: a lower gain is always allowed */
+    if (enabled < 0)
+        return fall_back(SBS_CTRL2_UNDECIDED, p, memory, k);
+    if (!enabled)
+        return fall_back(SBS_CTRL2_NO_RUN, p, memory, k);
+    verdict = check_command(gain, p, f, fp, rx, ry, rz, nx, ny, nz, n, G, e);
+    if (verdict != SBS_CTRL2_OK)
+        return fall_back(verdict, p, memory, k);
+    memory->has_previous = 1;
+    for (a = 0; a < 3; a++) {
+        memory->p[a] = p[a];
+        memory->f[a] = f[a];
+        memory->fp[a] = fp[a];
+    }
+    memory->k = gain;
+    *k = gain;
+    return SBS_CTRL2_OK;
+}
