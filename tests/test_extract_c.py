@@ -10,8 +10,8 @@ and takes no decision (the caller falls back). So:
     hence the float-sound Python kernel's. Checked on 2,500 random ctrl2 scenes (10,000 with
     -m slow) and 1,400 random states per other model (over 10,000 states in the quick run)
     against the Python kernel, with the model run in exact rationals as the arbiter where the
-    two differ (it has sided with C every time; the one Python error found is an xfail test
-    below); on scenes against the exact interpreter directly; by hypothesis with extreme
+    two differ (it has sided with C every time; the one Python error found, since fixed, is a
+    regression test below); on scenes against the exact interpreter directly; by hypothesis with extreme
     magnitudes (subnormals, 1e±300, the issue's 2.1e-162 normal).
   * UNDECIDED states: none on scenes inside the model's assumptions nor on ordinary states
     (no ties, no extreme magnitudes), except a model whose outputs are 0 by cancellation
@@ -303,9 +303,7 @@ def test_c_refuses_activating_a_boundary_the_tool_is_past(folder):
     assert c(*args)[-1] is False and not c.undecided
 
 
-@pytest.mark.xfail(strict=True, reason="the Python kernel (kfloat, 3996874) lets ctrl2_dynamic activate a "
-                   "boundary the tool is past here (subnormal normal components); C and the exact "
-                   "interpreter refuse it")
+# once an xfail: the Python kernel at 3996874 let ctrl2_dynamic activate this boundary (fixed in 2f05091)
 def test_python_kernel_refuses_activating_a_boundary_the_tool_is_past():
     args = _activating_a_boundary_the_tool_is_past()
     assert python("sbs.ctrl2_dynamic")["controller"](*args)[-1] is False

@@ -206,19 +206,19 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
         } else if ((cl_t = cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_ge(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0)))) != 0) { /* ff2 slow, fnp>=0 fn>=0 */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_exact(1.0);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_gt(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_le(cl_div(cl_mul(cl_exact(-1.0), cl_fn, careful), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful)))) != 0) { /* ff3 slow, turns early */
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_gt(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_le(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful)))) != 0) { /* ff3 slow, turns early */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_exact(1.0);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_gt(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_ge(cl_div(cl_mul(cl_exact(-1.0), cl_fn, careful), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff4 slow, turns late */
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_gt(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_ge(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff4 slow, turns late */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_div(cl_d0, cl_D, careful);
         } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_eq(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff5 slow, fnp=0 fn<=0 */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_div(cl_d0, cl_D, careful);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_lt(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_le(cl_div(cl_mul(cl_exact(-1.0), cl_fn, careful), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff6 slow, reverses early */
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_lt(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_le(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff6 slow, reverses early */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_div(cl_d0, cl_D, careful);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_lt(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_ge(cl_div(cl_mul(cl_exact(-1.0), cl_fn, careful), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful)))) != 0) { /* ff7 slow, reverses late */
+        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_lt(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_ge(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful)))) != 0) { /* ff7 slow, reverses late */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_exact(1.0);
         } else if ((cl_t = cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_eq(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0)))) != 0) { /* ff8 slow, fnp=0 fn>=0 */
@@ -242,7 +242,7 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
             cl_kt = cl_u;
         } else if ((cl_t = cl_and(cl_and(cl_le(cl_fnp, cl_exact(0.0)), cl_le(cl_dist, cl_exact(0.0))), cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* se fnp<=0, would cross */
             if (cl_t < 0) CL_UNSURE;
-            cl_kt = cl_mul(cl_mul(cl_exact(-1.0), cl_d0, careful), cl_div(cl_exact(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), careful), careful);
+            cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_exact(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), careful), careful);
         } else if ((cl_t = cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_le(cl_disc, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sb turns back, disc<=0 */
             if (cl_t < 0) CL_UNSURE;
             cl_kt = cl_u;
@@ -251,7 +251,7 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
             cl_kt = cl_mul(cl_mul(cl_mul(cl_exact(2.0), cl_fnp, careful), cl_d0, careful), cl_div(cl_exact(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful), careful);
         } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_ge(cl_disc, cl_exact(0.0))), cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_exact(0.0))), cl_le(cl_dist, cl_exact(0.0))), cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* sg still inward, would cross */
             if (cl_t < 0) CL_UNSURE;
-            cl_kt = cl_mul(cl_mul(cl_exact(-1.0), cl_d0, careful), cl_div(cl_exact(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), careful), careful);
+            cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_exact(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), careful), careful);
         } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_ge(cl_disc, cl_exact(0.0))), cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_exact(0.0))), cl_ge(cl_dist, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sc still inward, clear */
             if (cl_t < 0) CL_UNSURE;
             cl_kt = cl_u;

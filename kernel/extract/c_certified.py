@@ -206,6 +206,12 @@ def cl_op(n: Node, a: list[str]) -> str:
     """C for an operator node, given its arguments' C code: terms as cl_real, formulas
     three-valued; n-ary sums and products left to right, as the Python."""
     op = n.op
+    if op == "*":  # a factor of exactly ±1 changes only the sign: no rounding, no bound (as vectorised)
+        unit = [x.op == "const" and Fraction(x.payload) in (1, -1) for x in n.args]
+        negative = sum(1 for x, u in zip(n.args, unit) if u and Fraction(x.payload) == -1)
+        a = [code for code, u in zip(a, unit) if not u] or ["cl_exact(1.0)"]
+        if negative % 2:
+            a[0] = f"cl_neg({a[0]})"
     if op in ("+", "*"):
         fn = "cl_add" if op == "+" else "cl_mul"
         code = a[0]
