@@ -107,13 +107,32 @@ def parse_tree(text: str, source: str = "<kyx>") -> Tree:
     except UnexpectedToken as exc:
         if exc.token.type == "$END":
             raise KyxError(f"{source}: unexpected end of file (a missing `End.`?)") from None
-        expected = ", ".join(sorted(exc.accepts or exc.expected))[:120]
-        raise KyxError(f"{source}:{exc.line}:{exc.column}: unexpected {exc.token.value!r}"
-                       f" (expected one of: {expected})") from None
+        raise KyxError(f"{source}:{exc.line}:{exc.column}: unexpected {_first_word(exc.token.value)!r}"
+                       f" (expected {_readable(exc.accepts or exc.expected)})") from None
     except UnexpectedEOF:
         raise KyxError(f"{source}: unexpected end of file (a missing `End.`?)") from None
     except UnexpectedInput as exc:  # pragma: no cover - the three above are all lark raises
         raise KyxError(f"{source}:{exc.line}:{exc.column}: cannot parse here") from None
+
+
+def _first_word(text: str) -> str:
+    words = str(text).split()
+    return words[0][:30] if words else str(text)[:30]
+
+
+def _readable(names) -> str:
+    """Terminal names as what to type: `;`, `End.`, a number, ..."""
+    shown = set()
+    for name in names:
+        term = next((t for t in _parser().terminals if t.name == name), None)
+        if name in ("IDENT", "DIFFSYM", "NUMBER", "STRING", "CMP", "ADDOP", "MULOP"):
+            shown.add({"IDENT": "a name", "DIFFSYM": "x'", "NUMBER": "a number", "STRING": "a string",
+                       "CMP": "a comparison", "ADDOP": "+ or -", "MULOP": "* or /"}[name])
+        elif term is not None and term.pattern.type == "str":
+            shown.add(f"`{term.pattern.value}`")
+        elif name == "END":
+            shown.add("`End.`")
+    return "one of " + ", ".join(sorted(shown)) if shown else "something else"
 
 
 # --------------------------------------------------------------------------- declarations
