@@ -124,6 +124,7 @@ def test_unsupported_constructs_are_refused_with_line_and_column():
         ('ArchiveEntry "a" Problem sqrt(2) > 0 End. End.', "`sqrt` is not supported"),
         ('ArchiveEntry "a" Problem [{x:=x+1;}*]x>0 | x=1 End. End.', "loop inside"),
         ('ArchiveEntry "a" Definitions Real c; End. Problem [c := 1;]c > 0 End. End.', "constant `c`"),
+        ('ArchiveEntry "a" Definitions Real c = 2; End. Problem \\forall c c>0 End. End.', "quantify over"),
     ]:
         (e,) = read_entries(text, "f.kyx")
         assert e.theorem is None and what in e.error and re.match(r"f\.kyx:\d+:\d+: ", e.error), e.error

@@ -277,6 +277,9 @@ class Builder:
 
     def e_quantifier(self, t, env):
         q, *names, body = t.children
+        for n in names:
+            if str(n) in self.scope.defs:
+                raise self.fail(n, f"cannot quantify over `{n}`: it is declared in Definitions")
         inner = {k: v for k, v in env.items() if k not in {str(n) for n in names}}
         variables = [Real(str(n)) for n in names]
         f = self._bool(body, inner)

@@ -137,9 +137,10 @@ class Entry:
     error: str | None  # why the entry cannot be used (not supported), with line and column
 
 
-def read_entries(text: str, source: str = "<kyx>") -> list[Entry]:
+def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> list[Entry]:
     """Every entry of an archive, each a Theorem or the one-line reason it is not supported.
-    A syntax error in the file raises KyxError (no entry can be trusted then)."""
+    A syntax error in the file raises KyxError (no entry can be trusted then). With `only`,
+    just that entry is built; the others are listed by name (theorem and error None)."""
     tree = parse_tree(text, source)
     if tree.data == "bare_formula":
         raise KyxError(f"{source}: a bare formula, not an archive: wrap it in "
@@ -157,6 +158,9 @@ def read_entries(text: str, source: str = "<kyx>") -> list[Entry]:
         if name in seen:
             raise KyxError(f"{_where(source, name_tok)}: two entries named {name!r}")
         seen.add(name)
+        if only is not None and name != only:
+            entries.append(Entry(name, str(kind), None, None))
+            continue
         span = text[item.meta.start_pos:item.meta.end_pos]
         try:
             theorem = _entry_theorem(item, name, shared, span, source)

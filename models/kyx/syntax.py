@@ -25,7 +25,9 @@ BUILTINS = ("abs", "min", "max")
 def _parser() -> Lark:
     global _PARSER
     if _PARSER is None:
-        _PARSER = Lark(GRAMMAR, parser="lalr", propagate_positions=True, maybe_placeholders=False)
+        # cache=True: lark keeps the LALR tables in the temp folder, keyed by the grammar's hash
+        _PARSER = Lark(GRAMMAR, parser="lalr", propagate_positions=True, maybe_placeholders=False,
+                       cache=True)
     return _PARSER
 
 

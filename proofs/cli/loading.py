@@ -58,7 +58,7 @@ def load_kyx(path_text: str, entry: str | None = None) -> list[Theorem]:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         raise ModelError(f"{path_text}: cannot be read: {exc}") from None
-    entries = read_entries(text, path_text)
+    entries = read_entries(text, path_text, only=entry)
     if entry is not None:
         chosen = [e for e in entries if e.name == entry]
         if not chosen:
