@@ -230,3 +230,28 @@ def test_export_cli_round_trips_and_refuses_what_kyx_cannot_say(tmp_path):
         ("textbook.train", "proved"), ("textbook.train_no_lookahead", "refuted")]
     code, _, err = run("export", "cfmpa.builtdr", "--kyx")
     assert code == 2 and "integer symbol `k`" in err and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("path", [VALID, INVALID])
+def test_archive_entries_round_trip_through_the_writer(path):
+    """.kyx -> Theorem -> .kyx -> Theorem: the same claim (x', old(x), abs cases included)."""
+    for entry in read_entries(path.read_text(), str(path)):
+        (again,) = read_entries(to_kyx(entry.theorem), "again.kyx")
+        assert again.theorem.content_hash == entry.theorem.content_hash, entry.name
+
+
+def test_older_blocks_labels_if_else_and_precedence():
+    found = entries(FIXTURES / "kyx_syntax_variety.kyx")
+    first = found["labelled entry, old Functions and Variables blocks"].theorem
+    assert first.assumptions.op == "cmp" and str(first.assumptions) == "x = 0"  # `P <- Q` is Q -> P
+    assert {c.name for c in first.constants} == {"A", "v"}  # v: only in the guarantee
+    second = found["if-else, precedence"].theorem
+    conjuncts = second.assumptions.args
+    assert str(conjuncts[0]) == "-x^2 <= 0"  # -(x^2), not (-x)^2
+    assert conjuncts[1].op == "not" and conjuncts[1].args[0].op == "cmp"  # !(x > 1)
+    box = second.guarantee.args[0]  # [if ..](..) & 2^3 = 8: the box binds tighter than &
+    assert box.op == "box" and isinstance(box.payload, Choice) and len(box.payload.alternatives) == 2
+    power = second.guarantee.args[1].args[0]
+    assert power.op == "^" and power.payload == 3 and str(power.args[0]) == "2"
+    (e,) = read_entries('ArchiveEntry "a" ProgramVariables Real x; End. Problem x<-1 End. End.')
+    assert str(e.theorem.guarantee) == "x < -1"  # as KeYmaera X: `<-` needs a blank after it

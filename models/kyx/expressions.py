@@ -270,7 +270,7 @@ class Builder:
         return Implies(self._bool(t.children[0], env), self._bool(t.children[1], env))
 
     def e_reverse_implies(self, t, env):
-        return Implies(self._bool(t.children[1], env), self._bool(t.children[0], env))
+        return Implies(self._bool(t.children[-1], env), self._bool(t.children[0], env))
 
     def e_equiv(self, t, env):
         return Iff(self._bool(t.children[0], env), self._bool(t.children[1], env))

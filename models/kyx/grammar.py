@@ -56,7 +56,8 @@ STAR: "*"
 ?expr: equiv
 ?equiv: implication ("<->" implication)?
 ?implication: disjunction ("->" implication)?
-            | disjunction "<-" implication          -> reverse_implies
+            | disjunction REVIMP implication        -> reverse_implies
+REVIMP.2: /<-(?=\s)/  // as KeYmaera X: `x<-1` is x < -1
 ?disjunction: conjunction ("|" conjunction)*
 ?conjunction: unary ("&" unary)*
 ?unary: "!" unary                                   -> not_
