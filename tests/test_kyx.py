@@ -116,13 +116,19 @@ def test_abs_min_max_case_splits_agree_with_python(x, y):
     assert _value(ABS_MIN_MAX.assumptions, {"x": x, "y": y}) == expected
 
 
+def test_a_disjunction_beside_a_box_becomes_an_assumption():
+    t = entries(INVALID)["a loop under a disjunction"].theorem
+    assert str(t.assumptions) == "x = 0 & !(y = 1)" and isinstance(t.program, Loop)
+    assert str(t.guarantee) == "x <= 1"
+
+
 def test_unsupported_constructs_are_refused_with_line_and_column():
     bad = entries(FIXTURES / "kyx_unsupported.kyx")["real exponent"]
     assert bad.theorem is None and re.search(r"kyx_unsupported\.kyx:3:\d+: exponent `x`", bad.error)
     for text, what in [
         ('ArchiveEntry "a" Definitions Real f(Real x); End. Problem f(1) > 0 End. End.', "uninterpreted"),
         ('ArchiveEntry "a" Problem sqrt(2) > 0 End. End.', "`sqrt` is not supported"),
-        ('ArchiveEntry "a" Problem [{x:=x+1;}*]x>0 | x=1 End. End.', "loop inside"),
+        ('ArchiveEntry "a" Problem [{x:=x+1;}*]x>0 <-> x=1 End. End.', "loop inside"),
         ('ArchiveEntry "a" Definitions Real c; End. Problem [c := 1;]c > 0 End. End.', "constant `c`"),
         ('ArchiveEntry "a" Definitions Real c = 2; End. Problem \\forall c c>0 End. End.', "quantify over"),
     ]:
@@ -191,7 +197,8 @@ def test_invalid_entries_are_never_proved_and_refuted_with_replayed_runs(tmp_pat
     assert code == 1, err
     verdicts = {d["model"]: d for d in json.loads(out.read_text())}
     assert all(d["verdict"] != "proved" for d in verdicts.values())
-    for name in ("loop that overshoots", "flow that leaves", "a symbol only in the guarantee"):
+    for name in ("loop that overshoots", "flow that leaves", "a symbol only in the guarantee",
+                 "a loop under a disjunction"):
         assert verdicts[name]["verdict"] == "refuted" and verdicts[name]["run_check"]["replayed"], name
 
 

@@ -52,6 +52,8 @@ from certiloop.models.lang.terms import (
     And,
     ModelError,
     Node,
+    Not,
+    Or,
     Real,
     Var,
     free_vars,
@@ -101,7 +103,8 @@ def _nested_loop(f: Node) -> bool:
 
 
 def split_problem(f: Node, exact: bool = False) -> tuple[Node, Program, Node]:
-    """`A -> [a](Q -> [b]P)` as (A, a; ?Q; b, P): each step an equivalence. exact: just
+    """`A -> [a](Q -> [b]P)` as (A, a; ?Q; b, P), and `Q | [a]P` as `!Q -> [a]P`: each step an
+    equivalence. exact: just
     `A -> [a]P` (how certiloop writes a theorem, so it reads back as the same one)."""
     if exact:
         assumptions, rest = (f.args[0], f.args[1]) if f.op == "implies" else (TRUE, f)
@@ -120,9 +123,22 @@ def split_problem(f: Node, exact: bool = False) -> tuple[Node, Program, Node]:
         elif f.op == "box":
             parts.append(f.payload)
             f = f.args[0]
+        elif f.op == "or" and _one_box_among_first_order(f.args):
+            # Q | [a]P is !Q -> [a]P: a loop in [a] then becomes the theorem's own program
+            guard = Not(Or(*(d for d in f.args if d.op != "box")))
+            if parts:
+                parts.append(test(guard))
+            else:
+                assumptions.append(guard)
+            f = next(d for d in f.args if d.op == "box")
         else:
             break
     return And(*assumptions), seq(*parts) if parts else skip(), f
+
+
+def _one_box_among_first_order(disjuncts: tuple[Node, ...]) -> bool:
+    boxes = [d for d in disjuncts if d.op == "box"]
+    return len(boxes) == 1 and not any(_modal(d) for d in disjuncts if d.op != "box")
 
 
 def _modal(f: Node) -> bool:
