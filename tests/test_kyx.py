@@ -262,3 +262,10 @@ def test_older_blocks_labels_if_else_and_precedence():
     assert power.op == "^" and power.payload == 3 and str(power.args[0]) == "2"
     (e,) = read_entries('ArchiveEntry "a" ProgramVariables Real x; End. Problem x<-1 End. End.')
     assert str(e.theorem.guarantee) == "x < -1"  # as KeYmaera X: `<-` needs a blank after it
+
+
+def test_made_up_names_never_clash_with_names_the_entry_spells():
+    (e,) = read_entries('ArchiveEntry "a" Problem x_prime = 5 & x_old = 1 -> '
+                        "[{x'=1}@invariant(x >= old(x))](x' = 1 & x_prime = 5) End. End.")
+    written = {p.target.name for p in e.theorem.program.parts if isinstance(p, Assign)}
+    assert written and not written & {"x_prime", "x_old"}

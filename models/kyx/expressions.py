@@ -50,8 +50,9 @@ from certiloop.models.lang.terms import (
 class Builder:
     """Turns one entry's trees into nodes and programs."""
 
-    def __init__(self, scope: Scope, prime_names: dict[str, str]):
+    def __init__(self, scope: Scope, prime_names: dict[str, str], taken: set[str] = frozenset()):
         self.scope = scope
+        self.taken = set(taken)  # every name the entry spells: made-up names must differ
         self.source = scope.source
         self.primes = prime_names  # x -> the variable standing for x'
         self.cases: dict[str, tuple[str, tuple[Node, ...]]] = {}  # marker -> (abs|min|max, args)
@@ -64,7 +65,7 @@ class Builder:
         for name, value in self.olds.items():
             if value.same(e):
                 return Real(name)
-        used = set(self.primes.values()) | set(self.scope.variables) | set(self.scope.defs) | set(self.olds)
+        used = self._used() | set(self.olds)
         base = f"{e.payload}_old" if e.op == "var" else "old"
         candidate, k = base, 1
         while candidate in used:
@@ -73,13 +74,16 @@ class Builder:
         self.olds[candidate] = e
         return Real(candidate)
 
+    def _used(self) -> set[str]:
+        return self.taken | set(self.primes.values()) | set(self.scope.variables) | set(self.scope.defs)
+
     def fail(self, where: Any, message: str) -> KyxError:
         return KyxError(f"{_where(self.source, where)}: {message}")
 
     # ---- differential symbols
     def prime(self, name: str) -> Node:
         if name not in self.primes:
-            used = set(self.primes.values()) | set(self.scope.variables) | set(self.scope.defs)
+            used = self._used() | set(self.olds or {})
             candidate, k = f"{name}_prime", 1
             while candidate in used:
                 k += 1
@@ -99,7 +103,7 @@ class Builder:
                 raise self.fail(where, f"the differential of the differential symbol `{e.payload}`")
             return self.prime(e.payload)
         if op == "+":
-            return Node("+", (), e.sort) if not e.args else _sum(self.differential(a, where) for a in e.args)
+            return _sum(self.differential(a, where) for a in e.args)
         if op == "neg":
             return neg(self.differential(e.args[0], where))
         if op == "*":

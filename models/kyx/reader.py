@@ -194,7 +194,8 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
     blocks = [c for c in item.children if isinstance(c, Tree) and c.data in ("definitions", "variables")]
     _declarations(blocks, scope)
     problem = next(c for c in item.children if isinstance(c, Tree) and c.data == "problem")
-    builder = Builder(scope, {})
+    spelled = {str(tok) for tok in item.scan_values(lambda v: isinstance(v, Token) and v.type == "IDENT")}
+    builder = Builder(scope, {}, taken=spelled | set(shared.defs))
     formula_tree = problem.children[0]
     f = builder.expr(formula_tree, {})
     if f.sort != BOOL:
