@@ -260,6 +260,8 @@ def test_older_blocks_labels_if_else_and_precedence():
     assert box.op == "box" and isinstance(box.payload, Choice) and len(box.payload.alternatives) == 2
     power = second.guarantee.args[1].args[0]
     assert power.op == "^" and power.payload == 3 and str(power.args[0]) == "2"
+    (e,) = read_entries('ArchiveEntry "a" ProgramVariables Real x; End. Problem x^2^3 >= 0 End. End.')
+    assert e.theorem.guarantee.args[0].payload == 8  # ^ is right-associative: x^(2^3)
     (e,) = read_entries('ArchiveEntry "a" ProgramVariables Real x; End. Problem x<-1 End. End.')
     assert str(e.theorem.guarantee) == "x < -1"  # as KeYmaera X: `<-` needs a blank after it
 

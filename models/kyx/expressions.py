@@ -238,6 +238,8 @@ class Builder:
     def e_power(self, t, env):
         base = self._num(t.children[0], env)
         exponent = self._num(t.children[1], env)
+        if exponent.op == "^" and exponent.args[0].op == "const":  # 2^3 in x^2^3: a number
+            exponent = const(exponent.args[0].payload ** exponent.payload)
         if exponent.op != "const" or exponent.payload.denominator != 1 or exponent.payload < 0:
             raise self.fail(t.children[1], f"exponent `{exponent}` is not supported: only natural "
                             "number literals")
