@@ -217,6 +217,12 @@ def test_unsupported_and_malformed_archives_exit_2_with_one_line():
         assert code == 2 and re.search(pattern, err) and len(err.strip().splitlines()) == 1, err
 
 
+def test_a_rule_the_engine_lacks_is_bad_input_naming_the_entry():
+    name = "an implication as a differential invariant"
+    code, _, err = run("prove", f'{FIXTURES / "kyx_unsupported.kyx"}:"{name}"')
+    assert code == 2 and err.startswith(f"certiloop: error: {name}: differential invariant"), err
+
+
 def test_list_gate_and_falsify_accept_archives():
     code, out, _ = run("list", str(INVALID), "--json")
     assert code == 0

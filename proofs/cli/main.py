@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import sys
@@ -404,8 +405,9 @@ def cmd_prove(args: argparse.Namespace) -> int:
                 ui.ModelProgress("proving", len(theorems), level > ui.QUIET) as progress:
             for theorem in theorems:
                 progress.model(theorem.name)
-                result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
-                                      smtlib_dir=smt_dir)
+                with _naming(theorem.name):
+                    result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
+                                          smtlib_dir=smt_dir)
                 if args.cross_check:
                     _cross_check(result)
                 show_result(out, result, level)
@@ -418,6 +420,19 @@ def cmd_prove(args: argparse.Namespace) -> int:
                 f"({time.perf_counter() - start:.1f} s)")
     _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
     return _prove_exit(results)
+
+
+@contextlib.contextmanager
+def _naming(model: str):
+    """A model the engine cannot handle (a rule it lacks) is bad input: say which model."""
+    from certiloop.models.lang.terms import ModelError
+
+    try:
+        yield
+    except ModelError as exc:
+        if model in str(exc):
+            raise
+        raise ModelError(f"{model}: {exc}") from None
 
 
 def _prove_exit(results: list) -> int:
