@@ -52,6 +52,7 @@ def test_definitions_are_expanded_and_constants_declared():
     assert "inside" not in text and "bounce" not in text  # predicate and program expanded
     assert "1/2" in text  # `Real c = 1/2;` substituted
     assert {c.name for c in t.constants} >= {"g", "H"}  # shared and entry Definitions
+    assert t.description == "A falling ball stays below its drop height"  # for `certiloop list`
     loop = t.program
     assert isinstance(loop, Loop) and loop.invariant is not None
     flow = loop.body.parts[0]

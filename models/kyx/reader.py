@@ -225,7 +225,7 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
         guarantee=guarantee,
         expected=meta.get("expected", "proved"),
         constants=tuple(constants) + _guarantee_only(assumptions, program, guarantee, constants),
-        description=meta.get("description", ""),
+        description=meta.get("description", _described(item)),
         unroll=meta.get("unroll", 3),
         check_nonblocking=meta.get("check_nonblocking", False),
         abbreviations={k: _rename(_meta_term(v, scope, source), names)
@@ -233,6 +233,15 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
         scenarios=tuple(_rename(_meta_formula(s, scope, source), names) for s in meta.get("scenarios", [])),
     )
     return theorem
+
+
+def _described(item: Tree) -> str:
+    """The entry's `Description "..."`, shown by `certiloop list`."""
+    for m in item.children:
+        if isinstance(m, Tree) and m.data == "meta" and str(m.children[0]) == "Description":
+            text = str(m.children[1])
+            return json.loads(text) if "\\" in text else text[1:-1]
+    return ""
 
 
 def _guarantee_only(assumptions: Node, program: Program, guarantee: Node, constants) -> tuple[Node, ...]:

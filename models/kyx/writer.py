@@ -203,9 +203,9 @@ def to_kyx(t: Theorem) -> str:
         "scenarios": [pr.formula(s) for s in t.scenarios],
         "names": {kyx: ours for ours, kyx in names.items()},
     }
-    lines = [f"ArchiveEntry {json.dumps(t.name)}"]
+    lines = [f"ArchiveEntry {json.dumps(t.name, ensure_ascii=False)}"]
     if t.description:
-        lines.append(f"  Description {json.dumps(t.description)}.")
+        lines.append(f"  Description {json.dumps(t.description, ensure_ascii=False)}.")
     lines.append(f"  /*@certiloop {json.dumps(meta)} */")
     if constants:
         lines += ["  Definitions", *(f"    Real {names.get(c, c)};" for c in constants), "  End."]
