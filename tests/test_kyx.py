@@ -18,8 +18,9 @@ from hypothesis import strategies as st
 from certiloop.models import library
 from certiloop.models.kyx import KyxError, NotExpressible, read_entries, to_kyx
 from certiloop.models.kyx.writer import KYX_IDENT
-from certiloop.models.lang.programs import ODE, Assign, Choice, Loop, Seq
-from certiloop.models.lang.terms import free_vars
+from certiloop.models.lang.programs import ODE, Assign, Choice, Loop, Seq, assign, loop, seq, test
+from certiloop.models.lang.terms import And, Box, ForAll, Iff, Implies, Not, Or, Real, cmp, const, free_vars
+from certiloop.models.lang.theorem import Theorem
 
 FIXTURES = Path(__file__).parent / "fixtures"
 VALID, INVALID = FIXTURES / "kyx_valid.kyx", FIXTURES / "kyx_invalid.kyx"
@@ -278,3 +279,37 @@ def test_made_up_names_never_clash_with_names_the_entry_spells():
                         "[{x'=1}@invariant(x >= old(x))](x' = 1 & x_prime = 5) End. End.")
     written = {p.target.name for p in e.theorem.program.parts if isinstance(p, Assign)}
     assert written and not written & {"x_prime", "x_old"}
+
+
+# random formulas: the writer's parentheses and the reader's precedence must agree exactly
+_x, _y = Real("x"), Real("y")
+_terms = st.recursive(
+    st.one_of(st.sampled_from([_x, _y]), st.integers(-3, 3).map(const),
+              st.fractions(-3, 3, max_denominator=3).map(const)),
+    lambda inner: st.one_of(
+        st.tuples(inner, inner).map(lambda p: p[0] + p[1]),
+        st.tuples(inner, inner).map(lambda p: p[0] - p[1]),
+        st.tuples(inner, inner).map(lambda p: p[0] * p[1]),
+        st.tuples(inner, st.sampled_from([_x, _y])).map(lambda p: p[0] / p[1]),
+        inner.map(lambda a: -a),
+        st.tuples(inner, st.integers(0, 3)).map(lambda p: p[0] ** p[1])),
+    max_leaves=6)
+_atoms = st.tuples(_terms, st.sampled_from(["<", "<=", "==", "!=", ">=", ">"]), _terms).map(
+    lambda p: cmp(p[1], p[0], p[2]))
+_formulas = st.recursive(
+    _atoms,
+    lambda inner: st.one_of(
+        st.tuples(inner, inner).map(lambda p: And(*p)), st.tuples(inner, inner).map(lambda p: Or(*p)),
+        inner.map(Not), st.tuples(inner, inner).map(lambda p: Implies(*p)),
+        st.tuples(inner, inner).map(lambda p: Iff(*p)), inner.map(lambda f: ForAll(_y, f)),
+        inner.map(lambda f: Box(assign(_x, _x + 1), f))),
+    max_leaves=5)
+
+
+@given(_formulas, _formulas)
+def test_random_formulas_survive_export_and_read(assumption, guarantee):
+    t = Theorem("random", assumption, loop(seq(assign(_x, _x + 1), test(guarantee)), invariant=guarantee),
+                guarantee)
+    (entry,) = read_entries(to_kyx(t), "random.kyx")
+    assert entry.error is None, entry.error
+    assert entry.theorem.content_hash == t.content_hash
