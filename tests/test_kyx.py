@@ -313,3 +313,28 @@ def test_random_formulas_survive_export_and_read(assumption, guarantee):
     (entry,) = read_entries(to_kyx(t), "random.kyx")
     assert entry.error is None, entry.error
     assert entry.theorem.content_hash == t.content_hash
+
+
+def test_keymaera_x_4_syntax_and_a_file_without_entries():
+    """`Functions.`, `R x.`, `Problem.` (KeYmaera X 4), a byte-order mark, no ArchiveEntry: one
+    entry named after the file; `R abs(R).` declares the built-in abs."""
+    legacy = FIXTURES / "kyx_legacy.kyx"
+    (e,) = read_entries(legacy.read_text(encoding="utf-8"), str(legacy))
+    assert e.name == "kyx_legacy" and e.error is None, e.error
+    assert {c.name for c in e.theorem.constants} == {"b"} and isinstance(e.theorem.program, ODE)
+    code, out, err = run("prove", str(FIXTURES / "kyx_legacy.kyx"), "-q")
+    assert code == 0, err + out
+
+
+@pytest.mark.parametrize("text, message", [
+    ('ArchiveEntry "g" ProgramVariables Real x; End. Problem [{x:=1;}^@]x>0 End. End.', "hybrid games"),
+    ('ArchiveEntry "e" ProgramVariables Real x; End. Problem [x:=__________;]x>0 End. End.', "blank"),
+    ('ArchiveEntry "h" Definitions HP o ::= {x\'=1}; End. Problem x>0 -> [o;]x>0 End. End.', None),
+])
+def test_games_and_exercise_blanks_are_named_and_hp_may_be_an_ode(text, message):
+    if message is None:
+        (e,) = read_entries(text)
+        assert isinstance(e.theorem.program, ODE)
+        return
+    with pytest.raises(KyxError, match=rf"f\.kyx:1:\d+: .*{message}"):
+        read_entries(text, "f.kyx")

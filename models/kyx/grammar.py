@@ -6,29 +6,32 @@ blocks are read as opaque text and ignored."""
 
 GRAMMAR = r"""
 start: shared? entry+
+     | block* problem tactic*                      -> bare_entry
      | expr                                        -> bare_formula
 
-shared: "SharedDefinitions" decl* END
+shared: "SharedDefinitions" "."? decl* END
 
-entry: KIND (IDENT ":")? STRING meta* block* problem tactic* meta* END
+// `.` after keywords and declarations: KeYmaera X 4's archive syntax (`R x.`), still in use
+entry: KIND (IDENT ":")? STRING "."? meta* block* problem tactic* meta* END
 KIND.2: "ArchiveEntry" | "Theorem" | "Lemma" | "Exercise"
 meta: META_KEY STRING "."
 META_KEY.2: "Description" | "Title" | "Link" | "Author" | "See" | "Illustration" | "Citation"
 ?block: definitions | variables
-definitions: ("Definitions" | "Functions") decl* END
-variables: ("ProgramVariables" | "Variables") vardecl* END
-vardecl: SORT IDENT ("," IDENT)* ";"
-decl: SORT IDENT ("," IDENT)* ";"                             -> decl_names
-    | SORT IDENT "(" [params] ")" ";"                         -> decl_function
-    | SORT IDENT ("(" [params] ")")? "=" expr ";"             -> def_term
-    | SORT IDENT ("(" [params] ")")? "<->" expr ";"           -> def_formula
-    | "HP" IDENT ";"                                          -> decl_program
+definitions: ("Definitions" | "Functions") "."? decl* END
+variables: ("ProgramVariables" | "Variables") "."? vardecl* END
+vardecl: SORT IDENT ("," IDENT)* _decl_end
+decl: SORT IDENT ("," IDENT)* _decl_end                     -> decl_names
+    | SORT IDENT "(" [params] ")" _decl_end                 -> decl_function
+    | SORT IDENT ("(" [params] ")")? "=" expr _decl_end     -> def_term
+    | SORT IDENT ("(" [params] ")")? "<->" expr _decl_end   -> def_formula
+    | "HP" IDENT _decl_end                                  -> decl_program
     | "import" IDENT ("." IDENT)* ("." "{" IDENT ("," IDENT)* "}")? ";"  -> import_
-    | "HP" IDENT "::=" "{" program "}" ";"                    -> def_program
+    | "HP" IDENT "::=" braced _decl_end                     -> def_program
+_decl_end: ";" | "."
 params: param ("," param)*
 param: SORT IDENT?
-SORT.2: "Real" | "Bool"
-problem: "Problem" expr END
+SORT.2: "Real" | "Bool" | "R" | "B"
+problem: "Problem" "."? expr END
 tactic: "Tactic" TACTIC_TEXT? END
 TACTIC_TEXT: /(?:(?!End\.)[\s\S])+/
 

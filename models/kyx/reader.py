@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import re
 from dataclasses import dataclass
+from pathlib import Path
 
 from lark import Token, Tree
 
@@ -158,9 +159,16 @@ def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> l
     A syntax error in the file raises KyxError (no entry can be trusted then). With `only`,
     just that entry is built; the others are listed by name (theorem and error None)."""
     tree = parse_tree(text, source)
-    if tree.data == "bare_formula":
-        raise KyxError(f"{source}: a bare formula, not an archive: wrap it in "
-                       "ArchiveEntry \"name\" Problem ... End. End.")
+    if tree.data in ("bare_entry", "bare_formula"):  # one problem, no ArchiveEntry: named by the file
+        name = Path(source).stem if source != "<kyx>" else "problem"
+        item = tree if tree.data == "bare_entry" else Tree("bare_entry", [Tree("problem", tree.children)])
+        if only is not None and name != only:
+            return [Entry(name, "Problem", None, None)]
+        try:
+            return [Entry(name, "Problem", _entry_theorem(item, name, Scope(source), text, source), None)]
+        except ModelError as exc:
+            why = str(exc) if isinstance(exc, KyxError) else f"{source}: {exc}"
+            return [Entry(name, "Problem", None, why)]
     shared = Scope(source)
     entries: list[Entry] = []
     seen: set[str] = set()

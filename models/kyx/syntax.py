@@ -38,7 +38,21 @@ def _where(source: str, node: Any) -> str:
     return f"{source}:{line}:{column}" if line is not None else source
 
 
+def _sort(token) -> str:
+    """KeYmaera X 4 wrote R and B for Real and Bool."""
+    return {"R": "Real", "B": "Bool"}.get(str(token), str(token))
+
+
+# constructs KeYmaera X has and certiloop does not, named instead of "unexpected token"
+_KNOWN = (("___", "an exercise blank `__________`: fill it in first"),
+          ("^@", "hybrid games (`^@`, `--`) are not supported"),
+          ("--", "hybrid games (`^@`, `--`) are not supported"),
+          ("{|", "program symbols with space restrictions `a{|x|}` are not supported"),
+          ("implicit", "implicit definitions are not supported"))
+
+
 def parse_tree(text: str, source: str = "<kyx>") -> Tree:
+    text = text.removeprefix("\ufeff")  # a byte-order mark some editors write
     try:
         return _parser().parse(text)
     except UnexpectedCharacters as exc:
@@ -47,6 +61,9 @@ def parse_tree(text: str, source: str = "<kyx>") -> Tree:
     except UnexpectedToken as exc:
         if exc.token.type == "$END":
             raise KyxError(f"{source}: unexpected end of file (a missing `End.`?)") from None
+        known = next((why for start, why in _KNOWN if str(exc.token.value).startswith(start)), None)
+        if known is not None:
+            raise KyxError(f"{source}:{exc.line}:{exc.column}: {known}") from None
         raise KyxError(f"{source}:{exc.line}:{exc.column}: unexpected {_first_word(exc.token.value)!r}"
                        f" (expected {_readable(exc.accepts or exc.expected)})") from None
     except UnexpectedEOF:
@@ -107,7 +124,7 @@ def _declarations(items: list[Tree], scope: Scope) -> None:
                     continue
                 sort, *names = decl.children
                 for n in names:
-                    if str(sort) != "Real":
+                    if _sort(sort) != "Real":
                         raise KyxError(f"{_where(scope.source, n)}: program variable `{n}` of sort "
                                        f"{sort}: only Real program variables are supported")
                     if n in scope.defs or n in scope.variables:
@@ -125,7 +142,7 @@ def _params(tree: Tree | None, scope: Scope) -> tuple[str, ...]:
     out = []
     for p in tree.children:
         sort, *name = p.children
-        if str(sort) != "Real" or not name:
+        if _sort(sort) != "Real" or not name:
             raise KyxError(f"{_where(scope.source, sort)}: function parameters must be named Real "
                            "parameters, as in `Real f(Real x) = x^2;`")
         out.append(str(name[0]))
@@ -144,17 +161,18 @@ def _declaration(decl: Tree, scope: Scope) -> None:
         sort, *names = decl.children
         for n in names:
             scope.declare(str(n), Definition("constant", where=n))
-            if str(sort) == "Bool":
+            if _sort(sort) == "Bool":
                 scope.bools.add(str(n))
         return
     if kind == "decl_function":
         sort, name, *rest = decl.children
-        params = _params(rest[0] if rest else None, scope)
-        if params:
+        if str(name) in BUILTINS and rest:  # KeYmaera X 4 declared `R abs(R).`: ours is built in
+            return
+        if rest and rest[0].children:
             raise KyxError(f"{_where(scope.source, name)}: uninterpreted function `{name}` with "
                            "arguments is not supported: give it a definition (`= ...`)")
         scope.declare(str(name), Definition("constant", where=name))
-        if str(sort) == "Bool":
+        if _sort(sort) == "Bool":
             scope.bools.add(str(name))
         return
     if kind in ("def_term", "def_formula"):
@@ -162,7 +180,7 @@ def _declaration(decl: Tree, scope: Scope) -> None:
         body = rest[-1]
         params = _params(rest[0] if len(rest) == 2 else None, scope)
         want = "Real" if kind == "def_term" else "Bool"
-        if str(sort) != want:
+        if _sort(sort) != want:
             raise KyxError(f"{_where(scope.source, name)}: `{name}` is declared {sort} but defined "
                            f"with {'=' if want == 'Real' else '<->'}")
         scope.declare(str(name), Definition("term" if want == "Real" else "formula", params, body, name))
