@@ -62,6 +62,28 @@ def entry_verdict(archive: str, name: str, invalid: bool, rlimit: int, examples:
     return {**row, "verdict": verdict, "how": how, "seconds": round(seconds, 2)}
 
 
+def read_only(archives: list[str]) -> int:
+    from collections import Counter
+
+    from certiloop.models.kyx import KyxError
+
+    parsed, entries, read, reasons = 0, 0, 0, Counter()
+    for archive in archives:
+        try:
+            found = read_entries(Path(archive).read_text(encoding="utf-8", errors="replace"), archive)
+        except KyxError as exc:
+            reasons["file: " + str(exc).split(": ", 1)[-1][:60]] += 1
+            continue
+        parsed += 1
+        entries += len(found)
+        read += sum(e.theorem is not None for e in found)
+        reasons.update("entry: " + e.error.split(": ", 1)[-1][:60] for e in found if e.error)
+    print(f"{parsed} of {len(archives)} files parse; {read} of {entries} entries read as theorems")
+    for why, n in reasons.most_common():
+        print(f"  {n:4d}  {why}")
+    return 0
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("valid", nargs="*", help="archives whose entries are all valid")
@@ -69,7 +91,12 @@ def main() -> int:
     parser.add_argument("--rlimit", type=int, default=2_000_000, help="z3 resource units per obligation")
     parser.add_argument("--max-examples", type=int, default=300, help="falsifier examples per entry")
     parser.add_argument("--only", help="run only entries whose name contains this text")
+    parser.add_argument("--read-only", action="store_true",
+                        help="only read the archives (any, games and exercises included): how many "
+                        "files parse and how many entries become theorems, with the reasons for the rest")
     args = parser.parse_args()
+    if args.read_only:
+        return read_only(args.valid + args.invalid)
     rows: list[dict] = []
     for archive, invalid in [(a, False) for a in args.valid] + [(a, True) for a in args.invalid]:
         for entry in read_entries(Path(archive).read_text(encoding="utf-8"), archive):
