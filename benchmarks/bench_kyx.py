@@ -91,6 +91,7 @@ def main() -> int:
     parser.add_argument("--rlimit", type=int, default=2_000_000, help="z3 resource units per obligation")
     parser.add_argument("--max-examples", type=int, default=300, help="falsifier examples per entry")
     parser.add_argument("--only", help="run only entries whose name contains this text")
+    parser.add_argument("--record", default="kyx", help="results/NAME.json to write (default kyx)")
     parser.add_argument("--read-only", action="store_true",
                         help="only read the archives (any, games and exercises included): how many "
                         "files parse and how many entries become theorems, with the reasons for the rest")
@@ -128,7 +129,7 @@ def main() -> int:
         for w in wrong:
             print(f"  WRONG VERDICT: {w}")
     RESULTS.mkdir(exist_ok=True)
-    (RESULTS / "kyx.json").write_text(json.dumps({
+    (RESULTS / f"{args.record}.json").write_text(json.dumps({
         "benchmark": "kyx", "rlimit": args.rlimit, "date": time.strftime("%Y-%m-%d"),
         "machine": "2-core sandbox shared with other jobs", "totals": totals,
         "rows": [{k: r.get(k) for k in ("archive", "entry", "expected", "verdict", "seconds", "engine_s")}
