@@ -2,8 +2,8 @@
 
 An entry's `Problem` is a dL formula; it becomes `assumptions -> [program] guarantee` by
 peeling what is equivalent: `A -> B` moves A into the assumptions, `[a][b]P` is `[a;b]P`,
-and `[a](Q -> P)` is `[a;?Q]P`. Whatever is left (a diamond, an equivalence, a quantifier)
-stays in the guarantee, behind the program `?true`.
+`[a](Q -> P)` is `[a;?Q]P` and `Q | [a]P` is `!Q -> [a]P`. Whatever is left (a diamond, an
+equivalence, a quantifier) stays in the guarantee, behind the program `?true`.
 
 Language the engine does not have is translated exactly or refused with line and column:
   * definitions (functions, predicates, programs) are expanded where they are used;
@@ -11,7 +11,8 @@ Language the engine does not have is translated exactly or refused with line and
   * a differential symbol `x'` is an ordinary variable that an ODE sets to its right-hand
     side at the end of the flow (dL's semantics); inside the ODE's own domain and
     annotations it is replaced by that right-hand side, which it equals along the flow;
-  * `(e)'` is the total differential of e (sum of ∂e/∂x · x'; constants have none).
+  * `(e)'` is the total differential of e (sum of ∂e/∂x · x'; constants have none);
+  * `old(e)` in an ODE's annotation is a fresh variable assigned e just before the ODE.
 """
 
 from __future__ import annotations
@@ -105,8 +106,8 @@ def _nested_loop(f: Node) -> bool:
 
 def split_problem(f: Node, exact: bool = False) -> tuple[Node, Program, Node]:
     """`A -> [a](Q -> [b]P)` as (A, a; ?Q; b, P), and `Q | [a]P` as `!Q -> [a]P`: each step an
-    equivalence. exact: just
-    `A -> [a]P` (how certiloop writes a theorem, so it reads back as the same one)."""
+    equivalence. exact: just `A -> [a]P` (how certiloop writes a theorem, so it reads back as
+    the same one)."""
     if exact:
         assumptions, rest = (f.args[0], f.args[1]) if f.op == "implies" else (TRUE, f)
         if rest.op == "box":
