@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import resource
 import statistics
 import subprocess
 import sys
@@ -28,6 +29,11 @@ from certiloop.models.kyx import read_entries  # noqa: E402
 
 CLI = [sys.executable, "-m", "certiloop.proofs.cli"]
 SAFETY_NET_S = 120  # a wall-clock guard per process only: reaching it counts as unknown
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
 
 
 def run(args: list[str]) -> tuple[int, str, str, float]:
@@ -103,7 +109,9 @@ def main() -> int:
         for entry in read_entries(Path(archive).read_text(encoding="utf-8"), archive):
             if args.only and args.only not in entry.name:
                 continue
+            cpu = _children_cpu()
             row = entry_verdict(archive, entry.name, invalid, args.rlimit, args.max_examples)
+            row["cpu_s"] = round(_children_cpu() - cpu, 2)  # start-up included, waiting excluded
             rows.append(row)
             undecided = ("unknown", "not supported", row["expected"])
             wrong = " WRONG VERDICT" if row["verdict"] not in undecided else ""
@@ -118,21 +126,25 @@ def main() -> int:
                  if r["verdict"] in ("proved", "refuted") and r["verdict"] != r["expected"]]
         times = [r["seconds"] for r in mine]
         engine = [r["engine_s"] for r in mine if "engine_s" in r] or [0.0]
+        cpu = [r["cpu_s"] for r in mine]
         totals[archive] = {"entries": len(mine), **counts, "wrong": wrong,
                            "median_s": round(statistics.median(times), 2), "max_s": max(times),
                            "engine_median_s": round(statistics.median(engine), 2),
-                           "engine_max_s": max(engine)}
+                           "engine_max_s": max(engine), "cpu_median_s": round(statistics.median(cpu), 2),
+                           "cpu_max_s": max(cpu)}
         print(f"{archive}: {len(mine)} entries, " + ", ".join(f"{v} {n}" for v, n in counts.items())
               + f", wrong verdicts {len(wrong)}, median {totals[archive]['median_s']} s, "
               f"max {totals[archive]['max_s']} s (prover alone: median "
-              f"{totals[archive]['engine_median_s']} s, max {totals[archive]['engine_max_s']} s)")
+              f"{totals[archive]['engine_median_s']} s, max {totals[archive]['engine_max_s']} s; CPU "
+              f"median {totals[archive]['cpu_median_s']} s, max {totals[archive]['cpu_max_s']} s)")
         for w in wrong:
             print(f"  WRONG VERDICT: {w}")
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / f"{args.record}.json").write_text(json.dumps({
         "benchmark": "kyx", "rlimit": args.rlimit, "date": time.strftime("%Y-%m-%d"),
         "machine": "2-core sandbox shared with other jobs", "totals": totals,
-        "rows": [{k: r.get(k) for k in ("archive", "entry", "expected", "verdict", "seconds", "engine_s")}
+        "rows": [{k: r.get(k) for k in ("archive", "entry", "expected", "verdict", "seconds", "engine_s",
+                                            "cpu_s")}
                  for r in rows],
     }, indent=2) + "\n")
     return 1 if any(t["wrong"] for t in totals.values()) else 0
