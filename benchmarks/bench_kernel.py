@@ -2,12 +2,21 @@
 1, 10, 100 and 1000 boundaries; the monitor's added cost is their difference.
 
     python benchmarks/bench_kernel.py [--calls 2000]
+    python benchmarks/bench_kernel.py --compare /tmp/oldvenv/bin/python [--rounds 5] [--calls 1000]
+
+--compare measures `step` of this install and of another one (its python, e.g. a virtualenv
+with commit a42bfa6 installed) side by side: interleaved rounds, each a fresh worker process
+per install (`--worker`), the same planes and states; medians over rounds of per-round
+medians, written to results/kernel_compare.json.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import statistics
+import subprocess
+import sys
 import time
 
 import numpy as np
@@ -44,10 +53,52 @@ def measure(m: int, rng, calls: int) -> dict:
             "monitor_and_checks_us": round(step - bare, 1)}
 
 
+SIZES = (1, 10, 100, 1000)
+
+
+def worker(calls: int) -> dict:
+    """`step` medians (µs) for every size: only API both installs have."""
+    rng = np.random.default_rng(0)
+    out = {}
+    for m in SIZES:
+        fixture = VirtualFixture(planes(m, rng), gain=1.0, buffer=0.5, period=0.0182,
+                                 position_tolerance=np.inf)
+        p, f, fp = np.zeros(3), np.array([1.0, -2.0, 0.5]), np.array([0.1, 0.0, -0.3])
+        fixture.step(p, f, fp)
+        out[m] = median_us(lambda fx=fixture, p=p, f=f, fp=fp: fx.step(p, f, fp), calls)
+    return out
+
+
+def compare(old_python: str, rounds: int, calls: int) -> None:
+    here = [sys.executable, __file__, "--worker", "--calls", str(calls)]
+    there = [old_python, __file__, "--worker", "--calls", str(calls)]
+    runs: dict[str, list[dict]] = {"old": [], "new": []}
+    for _ in range(rounds):  # interleaved: a busy moment hits both
+        for side, cmd in (("old", there), ("new", here)):
+            done = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd="/")
+            runs[side].append({int(k): v for k, v in json.loads(done.stdout.splitlines()[-1]).items()})
+    rows = []
+    for m in SIZES:
+        old = statistics.median(r[m] for r in runs["old"])
+        new = statistics.median(r[m] for r in runs["new"])
+        rows.append({"boundaries": m, "old_step_us": round(old, 1), "new_step_us": round(new, 1),
+                     "speedup": round(old / new, 2), "rounds": rounds, "calls": calls})
+    record("kernel_compare", rows)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--calls", type=int, default=2000)
+    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    ap.add_argument("--compare", metavar="PYTHON", help="another install's python, measured side by side")
+    ap.add_argument("--rounds", type=int, default=5)
     args = ap.parse_args()
+    if args.worker:
+        print(json.dumps(worker(args.calls)))
+        return
+    if args.compare:
+        compare(args.compare, args.rounds, args.calls)
+        return
     rng = np.random.default_rng(0)
     rows = []
     for m in (1, 10, 100, 1000):

@@ -33,7 +33,7 @@ batching does not change results.
 Named setups (`SETUPS`, the `certiloop campaign` scenarios) draw one fault per run from a
 per-run seed and run the batch in chunks (`run_setup`); `falsify/metrics.py` summarises the
 rows; `raven.paper` runs the paper's fixed 4-window schedule (a periodic fault, `PAPER`).
-Not yet here: the Raven arm as the plant, plots, Dask, the hypothesis worst-case search.
+Not yet here: the Raven arm as the plant (the robot is a point tool that follows its command).
 """
 
 from __future__ import annotations
@@ -82,6 +82,8 @@ class Scenario:
     fallback: str = "stop"  # or "haptic" (the paper's response)
     grace: int = 20  # ticks after the window in which an alarm still counts as detection
     normal: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, 1.0]))
+    plant: str = "point"  # or "arm": the Raven arm (IK, joint PD/PID at 1 kHz) follows the command
+    speed_spread: float = 0.0  # run i's operator moves at reach_speed * (1 - spread * u_i), u_i in [0, 1)
 
 
 @dataclass
@@ -196,6 +198,8 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
     encoder_stream = _Stream(faults, "encoder", runs, keys, -n)
     p_model = np.broadcast_to(sc.start_height * n, (runs, 3)).copy()
     p_robot = p_model.copy()
+    arm = _ArmPlant(runs, p_robot) if sc.plant == "arm" else None
+    speed = sc.reach_speed * (1.0 - sc.speed_spread * _uniform(keys, 0, 15))  # the operators differ
     measured_prev = p_robot.copy()
     monitor = DeviationMonitor(runs, tol=sc.tol, fallback=sc.fallback)
     min_distance = p_robot @ n
@@ -207,8 +211,7 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
         t = tick * DT
         stopped = monitor.stopped.copy()
         # operator: reach towards the plane and back; fixture: keep the model >= margin
-        v = -sc.reach_speed * math.cos(2 * math.pi * t / sc.period) * n
-        v = np.broadcast_to(v, (runs, 3)).copy()
+        v = -(speed * math.cos(2 * math.pi * t / sc.period))[:, None] * n
         dist_m = p_model @ n
         vn = v @ n
         limit = (sc.margin - dist_m) / DT  # the least normal speed keeping d_m >= margin
@@ -218,7 +221,10 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
         target_robot = command_stream(target_model, tick)  # the robot's commanded position
         target_robot = np.where(np.isfinite(target_robot), target_robot, p_robot)
         p_model = target_model
-        p_robot = np.where(stopped[:, None], p_robot, target_robot)  # stopped: brakes hold it
+        if arm is None:
+            p_robot = np.where(stopped[:, None], p_robot, target_robot)  # stopped: brakes hold it
+        else:
+            p_robot = arm.step(target_robot, stopped)
         min_distance = np.minimum(min_distance, p_robot @ n)
         measured = encoder_stream(p_robot, tick)
         v_measured = (measured - measured_prev) / DT
@@ -243,6 +249,33 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
             outcome.append("FN")
     return Records(list(faults), first, min_distance, monitor.peak, outcome, residual_alarm, alarms,
                    distances)
+
+
+class _ArmPlant:
+    """The Raven arm as the robot: the commanded tip position goes through inverse kinematics
+    (one Newton step a tick, warm-started) to joint targets, which the joint PD/PID dynamics
+    follow at 1 kHz (kernel/raven.py); a stopped run's joints are braked where they are. The
+    campaign's world frame is the tip's displacement from the arm's rest pose, placed at the
+    scenario's start position."""
+
+    def __init__(self, runs: int, start: np.ndarray) -> None:
+        from certiloop.kernel.raven import Positioning, RavenArm
+
+        self.arm, self.kin = RavenArm(), Positioning()
+        self.state = self.arm.rest(runs)
+        self.q_target = self.state.q[:, :3].copy()
+        self.offset = self.kin.tip(self.q_target) - start  # world = tip - offset
+
+    def step(self, target: np.ndarray, stopped: np.ndarray) -> np.ndarray:
+        self.q_target = self.kin.ik_step(target + self.offset, self.q_target)
+        joints = np.concatenate([self.q_target, self.state.q[:, 3:]], axis=1)
+        moved, _, _ = self.arm.step(self.state, joints)
+        hold = stopped[:, None]
+        self.state.q = np.where(hold, self.state.q, moved.q)
+        self.state.qdot = np.where(hold, 0.0, moved.qdot)
+        self.state.integral = np.where(hold, self.state.integral, moved.integral)
+        self.q_target = np.where(hold, self.state.q[:, :3], self.q_target)
+        return self.kin.tip(self.state.q[:, :3]) - self.offset
 
 
 def random_faults(runs: int, seed: int = 0, kinds=FAULT_KINDS, streams=STREAMS, ticks: int = 2000,
@@ -292,10 +325,12 @@ class Setup:
     # m/s: the operator reaches 16 mm deep from 20 mm, so the fixture holds the model at the margin
     # every cycle (at Scenario's 0.05 m/s the model never comes nearer than 12 mm)
     reach_speed: float = 0.1
+    plant: str = "point"  # "arm": the Raven arm follows the command (Scenario.plant)
+    speed_spread: float = 0.0
 
     def scenario(self, ticks: int) -> Scenario:
         return Scenario(ticks=ticks, margin=self.margin, fallback=self.fallback, grace=self.grace,
-                        reach_speed=self.reach_speed)
+                        reach_speed=self.reach_speed, plant=self.plant, speed_spread=self.speed_spread)
 
     def holds(self, rows: list[dict]) -> bool:
         if self.schedule == "paper":
@@ -314,6 +349,14 @@ SETUPS = {s.name: s for s in (
           "tol + U eps, stop on the first alarm", "stop"),
     Setup("raven.haptic_only", "the paper's response, the haptic cue only (raven.deviation_haptic_only): "
           "same faults, the arm is never stopped", "haptic"),
+    Setup("raven.no_margin", "the stop design with a margin below tol + U eps (2 mm < 3 mm + U eps, "
+          "raven.deviation_small_margin's premise): a fault below the threshold crosses", "stop",
+          margin=0.002, reach_speed=0.15),  # reaching 24 mm deep from 20 mm: the fixture holds it at 2 mm
+    Setup("raven.stop_margin_arm", "the proved stop design with the Raven arm as the plant (IK, joint "
+          "PD/PID at 1 kHz): operators at 0.025-0.05 m/s, whose tracking lag stays under tol", "stop",
+          plant="arm", reach_speed=0.05, speed_spread=0.5),
+    Setup("raven.haptic_only_arm", "the paper's haptic-only response with the Raven arm as the plant, "
+          "operators at 0.025-0.05 m/s", "haptic", plant="arm", reach_speed=0.05, speed_spread=0.5),
     Setup("raven.paper", "the paper's schedule: 4 windows of 300 ticks every 8 s over 32 s, haptic "
           "response, a 5 mm command jump standing in for the shoulder DAC override (point-tool plant)",
           "haptic", claim="every fault window alarmed, no alarm outside them or in the golden run",
@@ -338,32 +381,49 @@ def draw_fault(run_seed: int, setup: Setup, kinds=FAULT_KINDS, ticks: int = 2000
 
 
 def run_setup(setup: Setup, kinds=FAULT_KINDS, runs: int = 1000, seed: int = 0, ticks: int = 2000,
-              batch: int = 500, on_batch=None) -> list[dict]:
+              batch: int = 500, on_batch=None, executor=None) -> list[dict]:
     """`runs` runs of `setup`, run i with the run seed seed * RUN_STRIDE + i, stepped `batch`
-    at a time (the results do not depend on `batch`); one row per run. on_batch() is called
-    after each batch."""
+    at a time; one row per run, in run order. on_batch() is called after each batch. With a
+    concurrent.futures `executor` (a process pool, a Dask cluster) the batches run there; a
+    run depends only on its run seed, so neither `batch` nor the executor changes a row."""
     if not 1 <= runs <= MAX_RUNS or not 0 <= seed <= MAX_SEED or ticks < 400:
         raise ValueError(f"need 1 <= runs <= {MAX_RUNS}, 0 <= seed <= {MAX_SEED}, ticks >= 400")
     if setup.schedule == "paper":
         return _paper_rows(setup, seed)
+    batches = [(setup, tuple(kinds), ticks, first, seed * RUN_STRIDE + first,
+                min(runs, first + batch) - first) for first in range(0, runs, batch)]
+    if executor is None:
+        results = map(_batch_rows, batches)
+    else:
+        futures = [executor.submit(_batch_rows, b) for b in batches]
+        results = (f.result() for f in futures)
     rows: list[dict] = []
-    for first in range(0, runs, batch):
-        seeds = [seed * RUN_STRIDE + i for i in range(first, min(runs, first + batch))]
-        faults = [draw_fault(s, setup, kinds, ticks) for s in seeds]
-        rec = run_campaign(faults, setup.scenario(ticks), run_seeds=seeds)
-        for i, (s, f) in enumerate(zip(seeds, faults)):
-            rows.append(_row(first + i, s, f, int(rec.first_alarm[i]), rec.outcome[i], rec.min_distance[i]))
+    for part in results:
+        rows.extend(part)
         if on_batch is not None:
             on_batch()
     return rows
 
 
-def _row(run: int, seed: int, f: Fault | None, alarm: int, outcome: str, min_distance) -> dict:
+def _batch_rows(spec: tuple) -> list[dict]:
+    """One batch of a campaign (a picklable unit of work): runs first .. first + count - 1."""
+    setup, kinds, ticks, first, first_seed, count = spec
+    seeds = [first_seed + i for i in range(count)]
+    faults = [draw_fault(s, setup, kinds, ticks) for s in seeds]
+    rec = run_campaign(faults, setup.scenario(ticks), run_seeds=seeds)
+    return [_row(first + i, s, f, int(rec.first_alarm[i]), rec.outcome[i], rec.min_distance[i],
+                 rec.peak_deviation[i]) for i, (s, f) in enumerate(zip(seeds, faults))]
+
+
+def _row(run: int, seed: int, f: Fault | None, alarm: int, outcome: str, min_distance, peak=None) -> dict:
+    """One CSV row; `peak` is the run's largest measured deviation ||e|| (the ROC's score; None
+    for the paper's per-window rows)."""
     return {"run": run, "seed": seed, "kind": f.kind if f else "none", "stream": f.stream if f else "",
             "start": f.start if f else -1, "duration": f.duration if f else 0,
             "magnitude": f.magnitude if f else 0.0, "alarmed": alarm >= 0, "first_alarm": alarm,
             "latency": alarm - f.start if f and outcome == "TP" else None, "outcome": outcome,
-            "min_distance": float(min_distance), "crossed": bool(min_distance < 0)}
+            "min_distance": float(min_distance), "crossed": bool(min_distance < 0),
+            "peak_deviation": None if peak is None else float(peak)}
 
 
 def _paper_rows(setup: Setup, seed: int) -> list[dict]:

@@ -13,7 +13,7 @@ from certiloop.falsify.metrics import by_kind
 from certiloop.proofs.cli import ui
 
 CSV_FIELDS = ("run", "seed", "kind", "stream", "start", "duration", "magnitude", "alarmed", "first_alarm",
-              "latency", "outcome", "min_distance", "crossed")
+              "latency", "outcome", "min_distance", "crossed", "peak_deviation")
 
 
 def _cell(v) -> str:
@@ -49,7 +49,7 @@ def summary(setup: Setup, rows: list[dict], kinds, seed: int, ticks: int) -> dic
     """The --json document: the scenario, its claim and whether it holds, metrics per kind."""
     crossing = next((r for r in rows if r["crossed"]), None)
     return _clean({"scenario": setup.name, "description": setup.description, "claim": setup.claim,
-                   "holds": setup.holds(rows), "seed": seed, "ticks": ticks,
+                   "holds": setup.holds(rows), "seed": seed, "ticks": ticks, "tol": setup.scenario(ticks).tol,
                    "runs": 2 if setup.schedule == "paper" else len(rows), "rows": len(rows),
                    "faults": list(kinds), "by_kind": by_kind(rows), "first_crossing": crossing})
 
@@ -92,3 +92,32 @@ def _replay_args(doc: dict, row: dict) -> str:
     kinds = "" if tuple(doc["faults"]) == FAULT_KINDS else f", kinds={tuple(doc['faults'])!r}"
     ticks = "" if doc["ticks"] == 2000 else f", ticks={doc['ticks']}"
     return f"{row['seed']}{kinds}{ticks}"
+
+
+def search_summary(setup: Setup, result, kinds, seed: int, ticks: int, examples: int) -> dict:
+    """The --json document of `campaign --search`: the claim, whether it held over the faults
+    tried, and the shrunk crossing fault (with its replay)."""
+    fault = result.fault
+    return _clean({"scenario": setup.name, "description": setup.description, "claim": setup.claim,
+                   "search": True, "holds": fault is None, "seed": seed, "ticks": ticks,
+                   "max_examples": examples, "examples": result.examples, "faults": list(kinds),
+                   "crossing": None if fault is None else {
+                       "kind": fault.kind, "stream": fault.stream, "start": fault.start,
+                       "duration": fault.duration, "magnitude": fault.magnitude,
+                       "min_distance": result.min_distance}})
+
+
+def show_search(out: Console, doc: dict, seconds: float = 0.0) -> None:
+    c = doc["crossing"]
+    if c is None:
+        ui.say(out, f"{doc['scenario']}: no crossing among {doc['examples']} faults searched; claim "
+                    f"'{doc['claim']}' holds for them ({seconds:.1f} s)")
+        return
+    ui.say(out, f"{doc['scenario']}: a crossing after {doc['examples']} faults tried (shrunk); claim "
+                f"'{doc['claim']}' FAILS ({seconds:.1f} s)")
+    ui.say(out, f"crossing fault: {c['kind']} on the {c['stream']} stream, ticks [{c['start']}, "
+                f"{c['start'] + c['duration']}), magnitude {c['magnitude']:g}; min distance "
+                f"{1000 * c['min_distance']:.3f} mm; replay it: "
+                f"certiloop.falsify.campaign_search.replay_fault("
+                f"SETUPS[{doc['scenario']!r}], Fault({c['kind']!r}, {c['stream']!r}, {c['start']}, "
+                f"{c['duration']}, {c['magnitude']!r}), seed={doc['seed']})")

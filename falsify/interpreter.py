@@ -451,5 +451,8 @@ def _plain(v: Any) -> Any:
     if isinstance(v, bool) or isinstance(v, int):
         return v
     if isinstance(v, (float, Fraction)):
-        return float(f"{float(v):.9g}") + 0.0  # + 0.0 turns -0.0 into 0.0
+        try:
+            return float(f"{float(v):.9g}") + 0.0  # + 0.0 turns -0.0 into 0.0
+        except OverflowError:  # an exact value beyond the float range (1/(G fn²) for fn = 1e-160)
+            return float("inf") if v > 0 else float("-inf")
     return str(v)

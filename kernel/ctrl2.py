@@ -5,7 +5,11 @@ vectorised over the family of boundaries. Every line comes from the model's synt
 comments name the model's branch labels.
 """
 
+from fractions import Fraction as _F
+
 import numpy as np
+
+from certiloop.kernel import filtered as _f
 
 MODEL = 'sbs.ctrl2'
 MODEL_HASH = 'f854f1205e36dea0'  # the model's content hash when this code was extracted
@@ -15,74 +19,330 @@ FAMILIES = ['rx', 'nx', 'ry', 'ny', 'rz', 'nz']
 
 def controller(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz):
     """The gain the proof allows, and whether the model has a run at all (if not,
-    the caller must fall back). Families are 1-D arrays over the boundaries."""
-    enabled = True
+    the caller must fall back). Families are 1-D arrays over the boundaries.
+
+    Every decision is the real-valued model's on these inputs, and k is <= its real
+    value (rounded down): see certiloop.kernel.extract.certified."""
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
-        k = 1.0
-        # boundary loop: every boundary at once
-        u = 1.0
-        d0 = (((px + (-rx)) * nx) + ((py + (-ry)) * ny) + ((pz + (-rz)) * nz))
-        fnp = ((fxp * nx) + (fyp * ny) + (fzp * nz))
-        fn = ((fx * nx) + (fy * ny) + (fz * nz))
-        t1 = (d0 >= D)
-        t2 = (d0 >= 0.0)
-        t3 = (d0 <= D)
-        t4 = (fnp >= 0.0)
-        t5 = (fn >= 0.0)
-        t6 = (fnp > 0.0)
-        t7 = (fn <= 0.0)
-        t8 = (fnp == 0.0)
-        t9 = (fnp < 0.0)
-        t10 = (fnp <= 0.0)
-        t11 = (d0 <= 0.0)
-        # choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0)
-        u_ff1 = 1.0  # from u[i]*1 = 1
-        case_ff1 = t1  # ff1 free (d0 >= D)
-        u_ff2 = 1.0  # from u[i]*1 = 1
-        case_ff2 = t2 & t3 & t4 & t5  # ff2 slow, fnp>=0 fn>=0
-        xtr_ff3 = ((-1.0 * fn) / fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
-        u_ff3 = 1.0  # from u[i]*1 = 1
-        case_ff3 = t2 & t3 & t6 & t7 & (fnp != 0) & (xtr_ff3 <= (e / 2.0))  # ff3 slow, turns early
-        xtr_ff4 = ((-1.0 * fn) / fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
-        u_ff4 = (d0 / D)  # from u[i]*D = d0[i]
-        case_ff4 = t2 & t3 & t6 & t7 & (fnp != 0) & (xtr_ff4 >= (e / 2.0)) & (D != 0)  # ff4 slow, turns late
-        u_ff5 = (d0 / D)  # from u[i]*D = d0[i]
-        case_ff5 = t2 & t3 & t8 & t7 & (D != 0)  # ff5 slow, fnp=0 fn<=0
-        xtr_ff6 = ((-1.0 * fn) / fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
-        u_ff6 = (d0 / D)  # from u[i]*D = d0[i]
-        case_ff6 = t2 & t3 & t9 & t5 & (fnp != 0) & (xtr_ff6 <= (e / 2.0)) & (D != 0)  # ff6 slow, reverses early
-        xtr_ff7 = ((-1.0 * fn) / fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
-        u_ff7 = 1.0  # from u[i]*1 = 1
-        case_ff7 = t2 & t3 & t9 & t5 & (fnp != 0) & (xtr_ff7 >= (e / 2.0))  # ff7 slow, reverses late
-        u_ff8 = 1.0  # from u[i]*1 = 1
-        case_ff8 = t2 & t3 & t8 & t5  # ff8 slow, fnp=0 fn>=0
-        u_ff9 = (d0 / D)  # from u[i]*D = d0[i]
-        case_ff9 = t2 & t3 & t10 & t7 & (D != 0)  # ff9 slow, fnp<=0 fn<=0
-        u_ff10 = 0.0  # from u[i]*1 = 0
-        case_ff10 = t11  # ff10 stuck (d0 <= 0)
-        u = np.where(case_ff1, u_ff1, np.where(case_ff2, u_ff2, np.where(case_ff3, u_ff3, np.where(case_ff4, u_ff4, np.where(case_ff5, u_ff5, np.where(case_ff6, u_ff6, np.where(case_ff7, u_ff7, np.where(case_ff8, u_ff8, np.where(case_ff9, u_ff9, np.where(case_ff10, u_ff10, np.nan))))))))))
-        enabled &= case_ff1 | case_ff2 | case_ff3 | case_ff4 | case_ff5 | case_ff6 | case_ff7 | case_ff8 | case_ff9 | case_ff10
-        dist = (d0 + (G * u * ((fn * e) + (fnp * (e ** 2) * 0.5))))
-        disc = (((G * u * fn) ** 2) + (-(2.0 * G * u * fnp * d0)))
-        t12 = (dist >= 0.0)
-        t13 = (dist <= 0.0)
-        t14 = (disc <= 0.0)
-        t15 = (disc >= 0.0)
-        t16 = ((fn + (fnp * e)) >= 0.0)
-        t17 = ((fn + (fnp * e)) <= 0.0)
-        # choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away
-        case_sa = t10 & t12 & (G != 0)  # sa fnp<=0, clear
-        tmp_se = (1.0 / ((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
-        case_se = t10 & t13 & (((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)) != 0)  # se fnp<=0, would cross
-        case_sb = t4 & t7 & t14 & (G != 0)  # sb turns back, disc<=0
-        tmp_sf = (1.0 / (G * (fn ** 2)))  # from tmp*G*fn[i]^2 = 1
-        case_sf = t4 & t7 & t15 & t16 & ((G * (fn ** 2)) != 0)  # sf turns within step
-        tmp_sg = (1.0 / ((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
-        case_sg = t4 & t7 & t15 & t17 & t13 & (((G * fn * e) + ((G * fnp * (e ** 2)) / 2.0)) != 0)  # sg still inward, would cross
-        case_sc = t4 & t7 & t15 & t17 & t12 & (G != 0)  # sc still inward, clear
-        case_sd = t4 & t5 & (G != 0)  # sd away
-        kt = np.where(case_sa, u, np.where(case_se, (-1.0 * d0 * tmp_se), np.where(case_sb, u, np.where(case_sf, (2.0 * fnp * d0 * tmp_sf), np.where(case_sg, (-1.0 * d0 * tmp_sg), np.where(case_sc, u, np.where(case_sd, u, np.nan)))))))
-        enabled &= case_sa | case_se | case_sb | case_sf | case_sg | case_sc | case_sd
-        k = np.minimum(k, np.min(kt, initial=np.inf))
-    # floating-point overflow (1/(G fn²) for fn = 1e-160) is no run the proof covers
-    return k, bool(np.all(enabled)) and bool(np.isfinite(k))
+        *values, enabled, ok = _filtered(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz)  # k
+    if np.all(ok):
+        return *values, bool(np.all(enabled))
+    # near-ties, or values the floats could not bound: decided exactly, in rationals
+    if not _f.finite(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz):
+        return np.nan, False  # not a real state
+    if np.ndim(ok) == 0:  # a scalar test was uncertain: the whole step exactly
+        *exact, enabled = _exact(_f.exact(px), _f.exact(py), _f.exact(pz), _f.exact(fxp), _f.exact(fyp), _f.exact(fzp), _f.exact(fx), _f.exact(fy), _f.exact(fz), _f.exact(D), _f.exact(e), _f.exact(G), _f.exact(np.asarray(rx, dtype=float)), _f.exact(np.asarray(nx, dtype=float)), _f.exact(np.asarray(ry, dtype=float)), _f.exact(np.asarray(ny, dtype=float)), _f.exact(np.asarray(rz, dtype=float)), _f.exact(np.asarray(nz, dtype=float)))
+        return *(_f.floor(v) for v in exact), enabled
+    rows = np.flatnonzero(np.logical_not(ok))  # only those rows: they are independent
+    *exact, enabled_x = _exact(_f.exact(px), _f.exact(py), _f.exact(pz), _f.exact(fxp), _f.exact(fyp), _f.exact(fzp), _f.exact(fx), _f.exact(fy), _f.exact(fz), _f.exact(D), _f.exact(e), _f.exact(G), _f.exact(np.asarray(rx, dtype=float)[rows]), _f.exact(np.asarray(nx, dtype=float)[rows]), _f.exact(np.asarray(ry, dtype=float)[rows]), _f.exact(np.asarray(ny, dtype=float)[rows]), _f.exact(np.asarray(rz, dtype=float)[rows]), _f.exact(np.asarray(nz, dtype=float)[rows]))
+    return *(min(v, _f.floor(x)) for v, x in zip(values, exact)), bool(np.all(np.where(ok, enabled, True))) and enabled_x
+
+
+def _filtered(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz):
+    """Floats with error bounds: the outputs (real ones rounded down) over the rows where
+    every decision is certain, enabled, and ok: where they are (False: redo exactly)."""
+    enabled = True
+    _bad = False
+    k = 1.0
+    # boundary loop: every boundary at once
+    u = 1.0
+    _v1, _v1_e = _f.add(px, None, (-rx), None)
+    _v2, _v2_e = _f.mul(_v1, _v1_e, nx, None)
+    _v3, _v3_e = _f.add(py, None, (-ry), None)
+    _v4, _v4_e = _f.mul(_v3, _v3_e, ny, None)
+    _v5, _v5_e = _f.add(pz, None, (-rz), None)
+    _v6, _v6_e = _f.mul(_v5, _v5_e, nz, None)
+    _v7, _v7_e = _f.add(_v2, _v2_e, _v4, _v4_e)
+    _v8, _v8_e = _f.add(_v7, _v7_e, _v6, _v6_e)
+    d0 = _v8
+    d0_e = _v8_e
+    _v9, _v9_e = _f.mul(fxp, None, nx, None)
+    _v10, _v10_e = _f.mul(fyp, None, ny, None)
+    _v11, _v11_e = _f.mul(fzp, None, nz, None)
+    _v12, _v12_e = _f.add(_v9, _v9_e, _v10, _v10_e)
+    _v13, _v13_e = _f.add(_v12, _v12_e, _v11, _v11_e)
+    fnp = _v13
+    fnp_e = _v13_e
+    _v14, _v14_e = _f.mul(fx, None, nx, None)
+    _v15, _v15_e = _f.mul(fy, None, ny, None)
+    _v16, _v16_e = _f.mul(fz, None, nz, None)
+    _v17, _v17_e = _f.add(_v14, _v14_e, _v15, _v15_e)
+    _v18, _v18_e = _f.add(_v17, _v17_e, _v16, _v16_e)
+    fn = _v18
+    fn_e = _v18_e
+    # choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0)
+    t19 = (d0 >= D)
+    _u20 = _f.uncertain(d0, d0_e, D, None)
+    u_ff1 = 1.0  # from u[i]*1 = 1
+    case_ff1 = t19  # ff1 free (d0 >= D)
+    _bad = _bad | _u20
+    t21 = (d0 >= 0.0)
+    _u22 = _f.uncertain(d0, d0_e, 0.0, None)
+    t23 = (d0 <= D)
+    t24 = (fnp >= 0.0)
+    _u25 = _f.uncertain(fnp, fnp_e, 0.0, None)
+    t26 = (fn >= 0.0)
+    _u27 = _f.uncertain(fn, fn_e, 0.0, None)
+    u_ff2 = 1.0  # from u[i]*1 = 1
+    case_ff2 = t21  # ff2 slow, fnp>=0 fn>=0
+    _bad = _bad | _u22
+    case_ff2 = case_ff2 & t23
+    _bad = _bad | (case_ff2 & _u25)
+    case_ff2 = case_ff2 & t24
+    _bad = _bad | (case_ff2 & _u27)
+    case_ff2 = case_ff2 & t26
+    t28 = (fnp > 0.0)
+    t29 = (fn <= 0.0)
+    t30 = (fnp != 0.0)
+    _v31, _v31_e = _f.div((-fn), fn_e, fnp, fnp_e)
+    # xtr_ff3 = _v31 from xtr[i]*fnp[i] = (-1)*fn[i]
+    _v32, _v32_e = _f.div(e, None, 2.0, None)
+    _u33 = _f.uncertain(_v31, _v31_e, _v32, _v32_e)
+    u_ff3 = 1.0  # from u[i]*1 = 1
+    case_ff3 = t21  # ff3 slow, turns early
+    case_ff3 = case_ff3 & t23
+    case_ff3 = case_ff3 & t28
+    _bad = _bad | (case_ff3 & _u27)
+    case_ff3 = case_ff3 & t29
+    case_ff3 = case_ff3 & t30
+    _bad = _bad | (case_ff3 & _u33)
+    case_ff3 = case_ff3 & (_v31 <= _v32)
+    # xtr_ff4 = _v31 from xtr[i]*fnp[i] = (-1)*fn[i]
+    t34 = (D != 0.0)
+    _v35, _v35_e = _f.div(d0, d0_e, D, None)
+    # u_ff4 = _v35 from u[i]*D = d0[i]
+    case_ff4 = t21  # ff4 slow, turns late
+    case_ff4 = case_ff4 & t23
+    case_ff4 = case_ff4 & t28
+    case_ff4 = case_ff4 & t29
+    case_ff4 = case_ff4 & t30
+    case_ff4 = case_ff4 & (_v31 >= _v32)
+    case_ff4 = case_ff4 & t34
+    t36 = (fnp == 0.0)
+    # u_ff5 = _v35 from u[i]*D = d0[i]
+    case_ff5 = t21  # ff5 slow, fnp=0 fn<=0
+    case_ff5 = case_ff5 & t23
+    case_ff5 = case_ff5 & t36
+    _bad = _bad | (case_ff5 & _u27)
+    case_ff5 = case_ff5 & t29
+    case_ff5 = case_ff5 & t34
+    t37 = (fnp < 0.0)
+    # xtr_ff6 = _v31 from xtr[i]*fnp[i] = (-1)*fn[i]
+    # u_ff6 = _v35 from u[i]*D = d0[i]
+    case_ff6 = t21  # ff6 slow, reverses early
+    case_ff6 = case_ff6 & t23
+    case_ff6 = case_ff6 & t37
+    _bad = _bad | (case_ff6 & _u27)
+    case_ff6 = case_ff6 & t26
+    case_ff6 = case_ff6 & t30
+    _bad = _bad | (case_ff6 & _u33)
+    case_ff6 = case_ff6 & (_v31 <= _v32)
+    case_ff6 = case_ff6 & t34
+    # xtr_ff7 = _v31 from xtr[i]*fnp[i] = (-1)*fn[i]
+    u_ff7 = 1.0  # from u[i]*1 = 1
+    case_ff7 = t21  # ff7 slow, reverses late
+    case_ff7 = case_ff7 & t23
+    case_ff7 = case_ff7 & t37
+    case_ff7 = case_ff7 & t26
+    case_ff7 = case_ff7 & t30
+    case_ff7 = case_ff7 & (_v31 >= _v32)
+    u_ff8 = 1.0  # from u[i]*1 = 1
+    case_ff8 = t21  # ff8 slow, fnp=0 fn>=0
+    case_ff8 = case_ff8 & t23
+    case_ff8 = case_ff8 & t36
+    case_ff8 = case_ff8 & t26
+    t38 = (fnp <= 0.0)
+    # u_ff9 = _v35 from u[i]*D = d0[i]
+    case_ff9 = t21  # ff9 slow, fnp<=0 fn<=0
+    case_ff9 = case_ff9 & t23
+    case_ff9 = case_ff9 & t38
+    _bad = _bad | (case_ff9 & _u27)
+    case_ff9 = case_ff9 & t29
+    case_ff9 = case_ff9 & t34
+    t39 = (d0 <= 0.0)
+    u_ff10 = 0.0  # from u[i]*1 = 0
+    case_ff10 = t39  # ff10 stuck (d0 <= 0)
+    u = np.where(case_ff1, u_ff1, np.where(case_ff2, u_ff2, np.where(case_ff3, u_ff3, np.where(case_ff4, _v35, np.where(case_ff5, _v35, np.where(case_ff6, _v35, np.where(case_ff7, u_ff7, np.where(case_ff8, u_ff8, np.where(case_ff9, _v35, np.where(case_ff10, u_ff10, np.nan))))))))))
+    u_e = np.where(case_ff1, 0.0, np.where(case_ff2, 0.0, np.where(case_ff3, 0.0, np.where(case_ff4, _v35_e, np.where(case_ff5, _v35_e, np.where(case_ff6, _v35_e, np.where(case_ff7, 0.0, np.where(case_ff8, 0.0, np.where(case_ff9, _v35_e, np.where(case_ff10, 0.0, np.nan))))))))))
+    enabled &= case_ff1 | case_ff2 | case_ff3 | case_ff4 | case_ff5 | case_ff6 | case_ff7 | case_ff8 | case_ff9 | case_ff10
+    _v40, _v40_e = _f.mul(fn, fn_e, e, None)
+    _v41, _v41_e = _f.mul(e, None, e, None)
+    _v42, _v42_e = _f.mul(fnp, fnp_e, _v41, _v41_e)
+    _v43, _v43_e = _f.mul(_v42, _v42_e, 0.5, None)
+    _v44, _v44_e = _f.add(_v40, _v40_e, _v43, _v43_e)
+    _v45, _v45_e = _f.mul(G, None, u, u_e)
+    _v46, _v46_e = _f.mul(_v45, _v45_e, _v44, _v44_e)
+    _v47, _v47_e = _f.add(d0, d0_e, _v46, _v46_e)
+    dist = _v47
+    dist_e = _v47_e
+    _v48, _v48_e = _f.mul(_v45, _v45_e, fn, fn_e)
+    _v49, _v49_e = _f.mul(_v48, _v48_e, _v48, _v48_e)
+    _v50, _v50_e = _f.mul(2.0, None, G, None)
+    _v51, _v51_e = _f.mul(_v50, _v50_e, u, u_e)
+    _v52, _v52_e = _f.mul(_v51, _v51_e, fnp, fnp_e)
+    _v53, _v53_e = _f.mul(_v52, _v52_e, d0, d0_e)
+    _v54, _v54_e = _f.add(_v49, _v49_e, (-_v53), _v53_e)
+    disc = _v54
+    disc_e = _v54_e
+    # choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away
+    t55 = (dist >= 0.0)
+    _u56 = _f.uncertain(dist, dist_e, 0.0, None)
+    t57 = (G != 0.0)
+    _v58, _v58_e = _f.div(1.0, None, G, None)
+    # tmp_sa = _v58 from tmp*G = 1
+    case_sa = t38  # sa fnp<=0, clear
+    _bad = _bad | _u25
+    _bad = _bad | (case_sa & _u56)
+    case_sa = case_sa & t55
+    case_sa = case_sa & t57
+    t59 = (dist <= 0.0)
+    _v60, _v60_e = _f.mul(G, None, fn, fn_e)
+    _v61, _v61_e = _f.mul(_v60, _v60_e, e, None)
+    _v62, _v62_e = _f.mul(G, None, fnp, fnp_e)
+    _v63, _v63_e = _f.mul(_v62, _v62_e, _v41, _v41_e)
+    _v64, _v64_e = _f.div(_v63, _v63_e, 2.0, None)
+    _v65, _v65_e = _f.add(_v61, _v61_e, _v64, _v64_e)
+    t66 = (_v65 != 0.0)
+    _u67 = _f.uncertain(_v65, _v65_e, 0.0, None)
+    _v68, _v68_e = _f.div(1.0, None, _v65, _v65_e)
+    # tmp_se = _v68 from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+    _v69, _v69_e = _f.mul((-d0), d0_e, _v68, _v68_e)
+    case_se = t38  # se fnp<=0, would cross
+    case_se = case_se & t59
+    _bad = _bad | (case_se & _u67)
+    case_se = case_se & t66
+    t70 = (disc <= 0.0)
+    _u71 = _f.uncertain(disc, disc_e, 0.0, None)
+    # tmp_sb = _v58 from tmp*G = 1
+    case_sb = t24  # sb turns back, disc<=0
+    _bad = _bad | (case_sb & _u27)
+    case_sb = case_sb & t29
+    _bad = _bad | (case_sb & _u71)
+    case_sb = case_sb & t70
+    case_sb = case_sb & t57
+    t72 = (disc >= 0.0)
+    _v73, _v73_e = _f.mul(fnp, fnp_e, e, None)
+    _v74, _v74_e = _f.add(fn, fn_e, _v73, _v73_e)
+    t75 = (_v74 >= 0.0)
+    _u76 = _f.uncertain(_v74, _v74_e, 0.0, None)
+    _v77, _v77_e = _f.mul(fn, fn_e, fn, fn_e)
+    _v78, _v78_e = _f.mul(G, None, _v77, _v77_e)
+    t79 = (_v78 != 0.0)
+    _u80 = _f.uncertain(_v78, _v78_e, 0.0, None)
+    _v81, _v81_e = _f.div(1.0, None, _v78, _v78_e)
+    # tmp_sf = _v81 from tmp*G*fn[i]^2 = 1
+    _v82, _v82_e = _f.mul(2.0, None, fnp, fnp_e)
+    _v83, _v83_e = _f.mul(_v82, _v82_e, d0, d0_e)
+    _v84, _v84_e = _f.mul(_v83, _v83_e, _v81, _v81_e)
+    case_sf = t24  # sf turns within step
+    case_sf = case_sf & t29
+    case_sf = case_sf & t72
+    _bad = _bad | (case_sf & _u76)
+    case_sf = case_sf & t75
+    _bad = _bad | (case_sf & _u80)
+    case_sf = case_sf & t79
+    t85 = (_v74 <= 0.0)
+    # tmp_sg = _v68 from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+    case_sg = t24  # sg still inward, would cross
+    case_sg = case_sg & t29
+    case_sg = case_sg & t72
+    case_sg = case_sg & t85
+    _bad = _bad | (case_sg & _u56)
+    case_sg = case_sg & t59
+    _bad = _bad | (case_sg & _u67)
+    case_sg = case_sg & t66
+    # tmp_sc = _v58 from tmp*G = 1
+    case_sc = t24  # sc still inward, clear
+    case_sc = case_sc & t29
+    case_sc = case_sc & t72
+    case_sc = case_sc & t85
+    case_sc = case_sc & t55
+    case_sc = case_sc & t57
+    # tmp_sd = _v58 from tmp*G = 1
+    case_sd = t24  # sd away
+    case_sd = case_sd & t26
+    case_sd = case_sd & t57
+    kt = np.where(case_sa, u, np.where(case_se, _v69, np.where(case_sb, u, np.where(case_sf, _v84, np.where(case_sg, _v69, np.where(case_sc, u, np.where(case_sd, u, np.nan)))))))
+    kt_e = np.where(case_sa, u_e, np.where(case_se, _v69_e, np.where(case_sb, u_e, np.where(case_sf, _v84_e, np.where(case_sg, _v69_e, np.where(case_sc, u_e, np.where(case_sd, u_e, np.nan)))))))
+    enabled &= case_sa | case_se | case_sb | case_sf | case_sg | case_sc | case_sd
+    _bad = _bad | _f.loose(kt, kt_e)
+    k = np.minimum(k, np.min(np.where(_bad, np.inf, _f.lower(kt, kt_e)), initial=np.inf))
+    return k, enabled, np.logical_not(_bad)
+
+
+def _exact(px, py, pz, fxp, fyp, fzp, fx, fy, fz, D, e, G, rx, nx, ry, ny, rz, nz):
+    """The same statements in exact rationals (object arrays of Fractions): the real
+    model's decisions and outputs."""
+    enabled = True
+    k = _F(1)
+    # boundary loop: every boundary at once
+    u = _F(1)
+    d0 = (((px + (-rx)) * nx) + ((py + (-ry)) * ny) + ((pz + (-rz)) * nz))
+    fnp = ((fxp * nx) + (fyp * ny) + (fzp * nz))
+    fn = ((fx * nx) + (fy * ny) + (fz * nz))
+    # choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0)
+    t1 = (d0 >= D)
+    u_ff1 = _F(1)  # from u[i]*1 = 1
+    case_ff1 = t1  # ff1 free (d0 >= D)
+    t2 = (d0 >= _F(0))
+    t3 = (d0 <= D)
+    t4 = (fnp >= _F(0))
+    t5 = (fn >= _F(0))
+    u_ff2 = _F(1)  # from u[i]*1 = 1
+    case_ff2 = t2 & t3 & t4 & t5  # ff2 slow, fnp>=0 fn>=0
+    t6 = (fnp > _F(0))
+    t7 = (fn <= _F(0))
+    t8 = (fnp != _F(0))
+    xtr_ff3 = _f.xdiv((_F(-1) * fn), fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
+    u_ff3 = _F(1)  # from u[i]*1 = 1
+    case_ff3 = t2 & t3 & t6 & t7 & t8 & (xtr_ff3 <= _f.xdiv(e, _F(2)))  # ff3 slow, turns early
+    xtr_ff4 = _f.xdiv((_F(-1) * fn), fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
+    t9 = (D != _F(0))
+    u_ff4 = _f.xdiv(d0, D)  # from u[i]*D = d0[i]
+    case_ff4 = t2 & t3 & t6 & t7 & t8 & (xtr_ff4 >= _f.xdiv(e, _F(2))) & t9  # ff4 slow, turns late
+    t10 = (fnp == _F(0))
+    u_ff5 = _f.xdiv(d0, D)  # from u[i]*D = d0[i]
+    case_ff5 = t2 & t3 & t10 & t7 & t9  # ff5 slow, fnp=0 fn<=0
+    t11 = (fnp < _F(0))
+    xtr_ff6 = _f.xdiv((_F(-1) * fn), fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
+    u_ff6 = _f.xdiv(d0, D)  # from u[i]*D = d0[i]
+    case_ff6 = t2 & t3 & t11 & t5 & t8 & (xtr_ff6 <= _f.xdiv(e, _F(2))) & t9  # ff6 slow, reverses early
+    xtr_ff7 = _f.xdiv((_F(-1) * fn), fnp)  # from xtr[i]*fnp[i] = (-1)*fn[i]
+    u_ff7 = _F(1)  # from u[i]*1 = 1
+    case_ff7 = t2 & t3 & t11 & t5 & t8 & (xtr_ff7 >= _f.xdiv(e, _F(2)))  # ff7 slow, reverses late
+    u_ff8 = _F(1)  # from u[i]*1 = 1
+    case_ff8 = t2 & t3 & t10 & t5  # ff8 slow, fnp=0 fn>=0
+    t12 = (fnp <= _F(0))
+    u_ff9 = _f.xdiv(d0, D)  # from u[i]*D = d0[i]
+    case_ff9 = t2 & t3 & t12 & t7 & t9  # ff9 slow, fnp<=0 fn<=0
+    t13 = (d0 <= _F(0))
+    u_ff10 = _F(0)  # from u[i]*1 = 0
+    case_ff10 = t13  # ff10 stuck (d0 <= 0)
+    u = np.where(case_ff1, u_ff1, np.where(case_ff2, u_ff2, np.where(case_ff3, u_ff3, np.where(case_ff4, u_ff4, np.where(case_ff5, u_ff5, np.where(case_ff6, u_ff6, np.where(case_ff7, u_ff7, np.where(case_ff8, u_ff8, np.where(case_ff9, u_ff9, np.where(case_ff10, u_ff10, _f.NAN))))))))))
+    enabled &= case_ff1 | case_ff2 | case_ff3 | case_ff4 | case_ff5 | case_ff6 | case_ff7 | case_ff8 | case_ff9 | case_ff10
+    dist = (d0 + (G * u * ((fn * e) + (fnp * (e ** 2) * _F(1, 2)))))
+    disc = (((G * u * fn) ** 2) + (-(_F(2) * G * u * fnp * d0)))
+    # choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away
+    t14 = (dist >= _F(0))
+    t15 = (G != _F(0))
+    case_sa = t12 & t14 & t15  # sa fnp<=0, clear
+    t16 = (dist <= _F(0))
+    t17 = (((G * fn * e) + _f.xdiv((G * fnp * (e ** 2)), _F(2))) != _F(0))
+    tmp_se = _f.xdiv(_F(1), ((G * fn * e) + _f.xdiv((G * fnp * (e ** 2)), _F(2))))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+    case_se = t12 & t16 & t17  # se fnp<=0, would cross
+    t18 = (disc <= _F(0))
+    case_sb = t4 & t7 & t18 & t15  # sb turns back, disc<=0
+    t19 = (disc >= _F(0))
+    t20 = ((fn + (fnp * e)) >= _F(0))
+    t21 = ((G * (fn ** 2)) != _F(0))
+    tmp_sf = _f.xdiv(_F(1), (G * (fn ** 2)))  # from tmp*G*fn[i]^2 = 1
+    case_sf = t4 & t7 & t19 & t20 & t21  # sf turns within step
+    t22 = ((fn + (fnp * e)) <= _F(0))
+    tmp_sg = _f.xdiv(_F(1), ((G * fn * e) + _f.xdiv((G * fnp * (e ** 2)), _F(2))))  # from tmp*G*(fn[i]*e + fnp[i]*e^2/2) = 1
+    case_sg = t4 & t7 & t19 & t22 & t16 & t17  # sg still inward, would cross
+    case_sc = t4 & t7 & t19 & t22 & t14 & t15  # sc still inward, clear
+    case_sd = t4 & t5 & t15  # sd away
+    kt = np.where(case_sa, u, np.where(case_se, (_F(-1) * d0 * tmp_se), np.where(case_sb, u, np.where(case_sf, (_F(2) * fnp * d0 * tmp_sf), np.where(case_sg, (_F(-1) * d0 * tmp_sg), np.where(case_sc, u, np.where(case_sd, u, _f.NAN)))))))
+    enabled &= case_sa | case_se | case_sb | case_sf | case_sg | case_sc | case_sd
+    k = np.minimum(k, np.min(kt, initial=np.inf))
+    return k, bool(np.all(enabled))

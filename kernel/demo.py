@@ -57,7 +57,9 @@ def main(argv: list[str] | None = None) -> int:
         table.add_row(str(n), f"{t:.4f}", f"{k:.4f}", f"{dx:.4f}", f"{dy:.4f}", f"{dz:.4f}", why or "-")
     Console().print(table)
     worst = min(min(r[3:6]) for r in rows)
-    print(f"smallest distance to any plane: {worst:.6g} (never negative)")
+    verdict = ("never negative" if worst >= 0 else "CROSSED" if worst < -1e-9 else
+               "below 0 only by the float rounding of this simulation's plant")
+    print(f"smallest distance to any plane: {worst:.6g} ({verdict})")
     if args.plot:
         _plot(rows, args.plot)
         print(f"plot: {args.plot}")

@@ -18,8 +18,7 @@ import numpy as np
 
 from certiloop.kernel import ctrl2, monitor
 
-ROUNDING = 1e-12  # |k| below this is rounding noise around 0
-NORMAL_NOISE = 1e-12  # normal components below this are rounding noise
+ROUNDING = 1e-12  # a negative k above -ROUNDING: a tool past a plane by rounding only
 
 
 @dataclass
@@ -104,14 +103,14 @@ class VirtualFixture:
         n, r = self._normals, self._points
         k, enabled = ctrl2.controller(*p, *fp, *f, self.buffer, self.period, self.gain,
                                       r[:, 0], n[:, 0], r[:, 1], n[:, 1], r[:, 2], n[:, 2])
-        k = float(k)
+        k = float(k)  # the real model's gain rounded down (ctrl2.py decides every case exactly)
         if -ROUNDING <= k < 0:
-            # -d0·tmp for a tool on a plane up to rounding (d0 = -1e-17): the gain is 0; a lower
-            # gain is always allowed (k = 0 stops the tool)
+            # a tool past a plane by rounding (d0 = -1e-17, within the input check's tolerance)
+            # is outside the model's invariant, and its k = -d0·tmp is a tiny negative number:
+            # command 0 (a lower gain is always allowed; k = 0 stops the tool)
             k = 0.0
         if not enabled:
-            return self._fallback("the verified controller has no enabled case for this state "
-                                  "(or its floating-point arithmetic overflowed)", p)
+            return self._fallback("the verified controller has no enabled case for this state", p)
         d0 = np.einsum("ij,ij->i", p - r, n)
         verdict = monitor.check_command(k, d0, n @ f, n @ fp, self.gain, self.period)
         if not verdict.ok:
@@ -142,9 +141,7 @@ def _unit(normal) -> np.ndarray:
         raise ValueError("a plane normal must not be zero")
     if abs(length - 1.0) > monitor.UNIT_TOLERANCE:
         raise ValueError(f"a plane normal must have length 1, got {length:.6g}")
-    # components below 1e-12 are rounding noise; kept, a 1e-159 component makes projected
-    # force rates subnormal and the controller's divisions overflow (then it can only stop)
-    n = np.where(np.abs(n) < NORMAL_NOISE, 0.0, n)
+    # kept as given, however tiny a component: the controller decides near-ties exactly
     return n / np.linalg.norm(n)
 
 

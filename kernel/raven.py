@@ -105,6 +105,76 @@ def tip_velocity(q, qdot, arm: str = "left") -> np.ndarray:
     return np.einsum("rij,rj->ri", jacobian(q, arm), np.atleast_2d(np.asarray(qdot, dtype=float)))
 
 
+def _rot_x(alpha: float, v: np.ndarray) -> np.ndarray:
+    c, s = np.cos(alpha), np.sin(alpha)
+    return np.stack([v[..., 0], c * v[..., 1] - s * v[..., 2], s * v[..., 1] + c * v[..., 2]], axis=-1)
+
+
+def _rot_z(ct: np.ndarray, st: np.ndarray, v: np.ndarray) -> np.ndarray:
+    return np.stack([ct * v[..., 0] - st * v[..., 1], st * v[..., 0] + ct * v[..., 1], v[..., 2]], axis=-1)
+
+
+def _z_cross(v: np.ndarray) -> np.ndarray:
+    """e_z x v: the derivative of Rot_z(theta) v with respect to theta, at theta = 0."""
+    return np.stack([-v[..., 1], v[..., 0], np.zeros_like(v[..., 2])], axis=-1)
+
+
+class Positioning:
+    """The tip as a function of the positioning joints (shoulder, elbow, insertion) alone, the
+    tool joints held at `tool` (th4, th5, th6): a closed form with its analytic Jacobian, for
+    the campaign loop, which evaluates them for every run at every tick (`tip` builds all
+    six 4x4 frames). Link i maps a point x of its frame to Rot_x(alpha)(a e_x + Rot_z(theta)
+    (x + d e_z)); the tool's frames 4-6 reduce to one constant point `c` in frame 3."""
+
+    def __init__(self, arm: str = "left", tool=(0.0, 0.0, 0.0)) -> None:
+        if arm not in ALPHA:
+            raise ValueError("arm must be 'left' or 'right'")
+        self.arm, self.alpha = arm, ALPHA[arm]
+        q = np.array([0.0, 0.0, 0.0, *tool], dtype=float)
+        f = frames(q, arm)[0]
+        self.c = (np.linalg.inv(f[2]) @ f[5][:, 3])[:3]  # the tip in frame 3, whatever d3 (d3 = 0 here)
+        self.c3, self.s3 = np.cos(THETA3[arm]), np.sin(THETA3[arm])
+
+    def tip_and_jacobian(self, qp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """qp (R, 3) -> tip (R, 3) and d tip / d qp (R, 3, 3)."""
+        qp = np.asarray(qp, dtype=float)
+        a1, a2, a3 = self.alpha[:3]
+        c1, s1, c2, s2 = np.cos(qp[:, 0]), np.sin(qp[:, 0]), np.cos(qp[:, 1]), np.sin(qp[:, 1])
+        ez = np.broadcast_to(np.array([0.0, 0.0, 1.0]), qp.shape)
+        x3 = self.c + qp[:, 2:3] * ez  # in frame 3, before its rotation
+        y2 = _rot_x(a3, _rot_z(self.c3, self.s3, x3))  # A[2] = 0: in frame 2
+        dy2 = _rot_x(a3, _rot_z(self.c3, self.s3, ez))  # d/d d3
+        y1 = _rot_x(a2, _rot_z(c2, s2, y2))  # A[1] = 0: in frame 1
+        dy1_d3 = _rot_x(a2, _rot_z(c2, s2, dy2))
+        dy1_th2 = _rot_x(a2, _rot_z(c2, s2, _z_cross(y2)))
+        tip = _rot_x(a1, _rot_z(c1, s1, y1))  # A[0] = 0
+        J = np.stack([_rot_x(a1, _rot_z(c1, s1, _z_cross(y1))), _rot_x(a1, _rot_z(c1, s1, dy1_th2)),
+                      _rot_x(a1, _rot_z(c1, s1, dy1_d3))], axis=-1)
+        return tip, J
+
+    def tip(self, qp: np.ndarray) -> np.ndarray:
+        return self.tip_and_jacobian(qp)[0]
+
+    def ik_step(self, target: np.ndarray, qp: np.ndarray) -> np.ndarray:
+        """One Newton step from qp towards the joints whose tip is `target` (R, 3), by Cramer's
+        rule on the 3x3 Jacobian; warm-started from the last tick's solution, one step a tick
+        converges quadratically. Rows whose step is not finite or whose Jacobian is
+        (nearly) singular keep qp."""
+        tip, J = self.tip_and_jacobian(qp)
+        err = np.asarray(target, dtype=float) - tip
+        j1, j2, j3 = J[..., 0], J[..., 1], J[..., 2]
+        c23 = np.cross(j2, j3)
+        det = np.einsum("ri,ri->r", j1, c23)
+        ok = np.abs(det) > 1e-12
+        safe = np.where(ok, det, 1.0)
+        with np.errstate(invalid="ignore", over="ignore"):
+            step = np.stack([np.einsum("ri,ri->r", err, c23), np.einsum("ri,ri->r", j1, np.cross(err, j3)),
+                             np.einsum("ri,ri->r", j1, np.cross(j2, err))], axis=1) / safe[:, None]
+            out = qp + step
+        ok &= np.all(np.isfinite(out), axis=1)
+        return np.where(ok[:, None], out, qp)
+
+
 @dataclass
 class ArmParams:
     """Decoupled joint dynamics of shoulder, elbow and insertion (hand-tuned, as the paper's)."""

@@ -52,10 +52,15 @@ The package, one job a module (no module imports one listed after it):
   * template — the generated module's header and docstrings, reserved names;
   * analysis — the control step of the model (`controller`), its outputs, shared syntax queries;
   * roots — solving a test's equation for the value it pins down;
+  * shapes — small shapes the scalar code recognises (`{?true}*`, pins first, latches, ∀j);
   * vectorised — the numpy code over a family of boundaries;
   * scalar — the plain Python code (`if`/`elif`, `for` loops);
   * generate — `extract`: choose the shape, generate, name the model in every refusal;
-  * shipped — the shipped kernels (SHIPPED) and `shipped_drift`.
+  * shipped — the shipped kernels (SHIPPED) and `shipped_drift`;
+  * monitor_terms — what the monitors share: MonitorError, a term as Python over a dict;
+  * modelplex_family — the controller monitor of a step over a family of boundaries;
+  * modelplex — `monitors(theorem)`: the ModelPlex-style controller and plant monitors of an
+    extracted model, a module of their own (`certiloop extract MODEL --monitors`).
 """
 
 from certiloop.kernel.extract.analysis import controller

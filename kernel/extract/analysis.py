@@ -211,6 +211,18 @@ def _uses_families(parts: list[Program]) -> bool:
     return any(s.sort.is_array and any(_is_index_sort(d) for d in s.sort.domain) for s in symbols.values())
 
 
+def _families_only_tested(parts: list[Program]) -> bool:
+    """No foreach and no family written: the families are only read, under `∀j` in tests
+    (raven.deviation_stop_3d); the scalar code evaluates those over numpy arrays."""
+    from certiloop.models.lang.programs import written
+
+    if any(isinstance(q, Loop) and q.each is not None for q in parts):
+        return False
+    step = Seq(tuple(parts))
+    return not any(s.sort.is_array and any(_is_index_sort(d) for d in s.sort.domain)
+                   for s in written(step).values())
+
+
 def controller(theorem: Theorem, inputs: bool = True) -> Program:
     """The control step as a program: the control loop's statements before the plant (after
     it, for a loop that runs its plant first; with the choice of modes, for a switched

@@ -4,7 +4,7 @@ word any refusal as one line that starts with the model's name."""
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.analysis import _split, _uses_families
+from certiloop.kernel.extract.analysis import _families_only_tested, _split, _uses_families
 from certiloop.kernel.extract.errors import ExtractError
 from certiloop.kernel.extract.scalar import _python
 from certiloop.kernel.extract.vectorised import _vectorised
@@ -17,7 +17,7 @@ def extract(theorem: Theorem) -> str:
     Raises ExtractError, with a one-line reason, for a shape it cannot extract."""
     try:
         step = _split(theorem)
-        if _uses_families(step.parts):
+        if _uses_families(step.parts) and not _families_only_tested(step.parts):
             if step.where in ("modes", "algorithm"):
                 raise ExtractError("a family of boundaries in a switched plant or an algorithm is not "
                                    "vectorised")

@@ -21,6 +21,7 @@ from certiloop.kernel.extract.analysis import (
 )
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _Root, _solutions
+from certiloop.kernel.extract.shapes import _elementwise, _is_annotation, _latches, _pins_first
 from certiloop.kernel.extract.template import ENTRY, HEADER, RESERVED, SCALAR, _check_names, _tag
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars
@@ -63,11 +64,13 @@ class _Python:
         self.opened: dict[str, None] = {}  # top-level `x := *` not yet read or pinned
         self.inputs: dict[str, None] = {}  # `x := *` read as they are: parameters
         self.pinned: set[str] = set()  # `x := *` solved for somewhere
+        self.admitted: dict[str, None] = {}  # `x := *` in an alternative, only tested: parameters
         self.tested: set[str] = set()  # names some test reads
         self.array_reads: set[str] = set()
         self.array_writes: dict[str, list[tuple[Node, ...] | None]] = {}  # array -> loop bounds per write
         self.loops: list[tuple[str, Node, Node]] = []  # enclosing for loops (counter, lo, hi)
         self.taken: set[str] = set(symbols) | RESERVED
+        self.elementwise: str | None = None  # the bound index inside a `∀j` over the boundaries
 
     def line(self, text: str) -> None:
         self.lines.append("    " * self.depth + text)
@@ -117,6 +120,10 @@ class _Python:
             root = n.args[0].payload
             if f"[{root}]" in subst:
                 raise _refuse(n, f"reads {root} after the same alternative wrote one of its cells")
+            if self.elementwise is not None and len(n.args) == 2 and n.args[1].op == "var" \
+                    and n.args[1].payload == self.elementwise:
+                self.read(root)  # the whole family, as a numpy array over the boundaries
+                return root
             if any(_is_index_sort(s) for s in n.args[0].sort.domain):
                 raise _refuse(n, "a family over an index sort needs the vectorised form (a foreach)")
             idx = [self.code(a, subst) for a in n.args[1:]]
@@ -139,7 +146,12 @@ class _Python:
             if op == "/":
                 return f"({a[0]} / {a[1]})"
             return a[0] if n.payload == 1 else f"({a[0]} ** {n.payload})"
+        if op == "forall" and self.elementwise is None and len(n.payload) == 1 \
+                and _is_index_sort(n.payload[0].sort):
+            return self.over_family(n, subst)
         a = [self.code(x, subst) for x in n.args]
+        if self.elementwise is not None and op in ("and", "or", "not", "implies", "iff"):
+            return _elementwise(op, a)
         if op == "and":
             return "(" + " and ".join(a) + ")" if a else "True"
         if op == "or":
@@ -151,6 +163,15 @@ class _Python:
         if op == "iff":
             return f"({a[0]} == {a[1]})"
         raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
+
+    def over_family(self, n: Node, subst: dict[str, str | None] | None) -> str:
+        """`∀j φ(j)` over the boundaries: φ elementwise over the families as numpy arrays
+        (True for an empty family)."""
+        self.elementwise = n.payload[0].payload
+        try:
+            return f"bool(np.all({self.code(n.args[0], subst)}))"
+        finally:
+            self.elementwise = None
 
     def test_code(self, atom: Node, subst: dict[str, str | None] | None = None) -> str:
         self.tested.update(free_vars(atom))
@@ -204,6 +225,8 @@ class _Python:
             self.test(q)
         elif isinstance(q, Choice):
             self.choice(q)
+        elif _is_annotation(q):
+            pass  # `{?true}*` carries an invariant for the proof; it does nothing at run time
         elif isinstance(q, Loop):
             raise _refuse(q, "only `for` loops (`i := lo; {?i < hi; ...; i := i + 1}*; ?i >= hi`) are "
                           "extracted: a loop with no exit test repeats any number of times")
@@ -227,7 +250,7 @@ class _Python:
         self.assigned[root] = None
 
     def test(self, q: Test) -> None:
-        for atom in _conjuncts(q.cond):
+        for atom in _pins_first(_conjuncts(q.cond), list(self.opened)):
             if atom.op == "true":
                 continue
             target = next((v for v in self.opened if _mentions(atom, v)), None)
@@ -377,9 +400,11 @@ class _Python:
                 sub = path.fork(f"{path.tag}_{_tag(label, k)}", f"{path.label} / {label}")
                 out += self.walk(_parts(alt), [sub])
             return out
+        if _is_annotation(q):
+            return [path]
         if isinstance(q, Test):
             paths = [path]
-            for atom in _conjuncts(q.cond):
+            for atom in _pins_first(_conjuncts(q.cond), [v for v, s in path.subst.items() if s is None]):
                 if atom.op != "true":
                     paths = [r for p in paths for r in self.atom_in_path(atom, p)]
             return paths
@@ -411,6 +436,17 @@ class _Python:
         if target is None:
             path.items.append(("if", self.test_code(atom, path.subst)))
             return [path]
+        if not (atom.op == "cmp" and atom.payload == "==") and target in path.subst \
+                and (target not in self.defined or target in self.admitted) and target not in self.pinned:
+            # `u := *; ?|u| <= U` with nothing pinning u: the value is an input, admitted as given
+            for v in [v for v, s in path.subst.items() if s is None and not v.startswith("[")
+                      and _mentions(atom, v)]:
+                if v in self.defined and v not in self.admitted or v in self.pinned:
+                    raise _refuse(atom, f"`{v} := *` gets a new value after the step read or solved it")
+                self.inputs[v] = self.admitted[v] = None
+                path.subst[v] = self.read(v)
+            path.items.append(("if", self.test_code(atom, path.subst)))
+            return [path]
         roots = _solutions(atom, target)
         out = []
         for root in roots:
@@ -438,11 +474,17 @@ def _python(theorem: Theorem, step: "_Step") -> str:
         symbols.update((r, Var(r, REAL)) for r in rates)
     py = _Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
     py.block(parts)
+    latches = _latches(parts, py.params) if step.where in ("before", "after") else set()
+    if latches - live:  # a value the step reads and sets (`stopped := 1`): the next step needs it
+        live |= latches
+        py = _Python(symbols, live, Seq(tuple(parts)))
+        py.block(parts)
     if py.pinned & set(py.inputs):
         both = sorted(py.pinned & set(py.inputs))
         raise ExtractError(f"`{both[0]} := *` is pinned by an equation on some paths and read as an input "
                            "on others; cannot extract")
     outputs = rates or _outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
+    outputs += [v for v in py.assigned if v in latches and v not in outputs]
     params = list(py.params)
     _check_names(theorem, [*params, *py.assigned])
     sort = lambda v: symbols[v].sort  # noqa: E731

@@ -9,6 +9,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass, field
 
+from certiloop.kernel.extract import certified
 from certiloop.kernel.extract.analysis import _conjuncts, _is_index_sort, _mentions, _outputs, _sort_of, _Step
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _solve
@@ -21,14 +22,16 @@ from certiloop.models.lang.theorem import Theorem
 @dataclass
 class _Alternative:
     mask: list[str] = field(default_factory=list)  # conjuncts, as code
-    effects: dict[str, str] = field(default_factory=dict)  # variable -> value code
+    unsure: list[list[str]] = field(default_factory=list)  # cert mode: per conjunct, its uncertainty masks
+    effects: dict[str, tuple[str, str | None]] = field(default_factory=dict)  # variable -> (value, error)
     lines: list[str] = field(default_factory=list)  # helper definitions (solved values)
 
 
 class _Emitter:
     """numpy code over a family: every boundary at once."""
 
-    def __init__(self, index: str | None) -> None:
+    def __init__(self, index: str | None, mode: str = "cert") -> None:
+        self.mode = mode  # "cert": floats with error bounds (certified.py); "exact": Fractions
         self.index = index  # the foreach variable inside the loop body, else None
         self.lines: list[str] = []
         self.local: dict[str, str] = {}  # model variable -> code name holding its value
@@ -39,6 +42,11 @@ class _Emitter:
         self.skip: str | None = None  # mask of the family members a foreach does not visit
         self.pending: dict[str, bool] = {}  # family `F := *` not pinned yet -> F was read before
         self.counter = [0]  # temporaries made so far (shared with nested emitters: unique names)
+        self.errors: dict[str, str | None] = {}  # cert mode: value code -> its error bound's code
+        self.memo: dict[str, str] = {}  # cert mode: helper call -> the temporary holding it
+        self.uncertain: dict[str, str] = {}  # cert mode: comparison mask -> where it is uncertain
+        self.used: list[str] = []  # cert mode: uncertainty masks of the comparisons coded since reset
+        self.flagged: set[tuple[str, tuple[str, ...]]] = set()  # cert mode: (mask, under conjuncts) in _bad
 
     # ---------------------------------------------------------------- expressions
     def code(self, n: Node, subst: dict[str, str] | None = None) -> str:
@@ -46,7 +54,9 @@ class _Emitter:
         op = n.op
         if op == "const":
             v = n.payload
-            return repr(float(v)) if v.denominator != 1 else f"{int(v)}.0"
+            if self.mode == "exact":
+                return certified.exact_constant(v)
+            return certified.constant(v)[0]
         if op == "true":
             return "True"
         if op == "false":
@@ -77,6 +87,10 @@ class _Emitter:
             return name
         if op in ("forall", "exists"):
             return self._quantified(n, subst)
+        if self.mode == "cert" and op in ("+", "*", "neg", "/", "^"):
+            return self.pair(n, subst)[0]
+        if self.mode == "cert" and op == "cmp":
+            return self._compare(n, subst)
         a = [self.code(x, subst) for x in n.args]
         if op == "+":
             return "(" + " + ".join(a) + ")"
@@ -85,6 +99,8 @@ class _Emitter:
         if op == "neg":
             return f"(-{a[0]})"
         if op == "/":
+            if self.mode == "exact":
+                return f"{certified.HELPERS}.xdiv({a[0]}, {a[1]})"
             if n.args[1].op != "const" and not any(_reads_family(x) for x in n.args):
                 return f"np.divide({a[0]}, {a[1]})"  # two Python floats: inf, not ZeroDivisionError
             return f"({a[0]} / {a[1]})"
@@ -106,6 +122,75 @@ class _Emitter:
         if op == "iff":
             return f"({a[0]} == {a[1]})"
         raise ExtractError(f"cannot extract `{n}` into runtime code")
+
+    def pair(self, n: Node, subst: dict[str, str]) -> tuple[str, str | None]:
+        """cert mode: (value code, error-bound code or None for exact) of an arithmetic term,
+        one helper call per operation (certified.py), each in a temporary."""
+        op = n.op
+        if op == "const":
+            return certified.constant(n.payload)
+        if op not in ("+", "*", "neg", "/", "^"):
+            v = self.code(n, subst)
+            return v, self.errors.get(v)
+        if op == "neg":
+            v, e = self.pair(n.args[0], subst)
+            return f"(-{v})", e
+        if op == "^":
+            base = self.pair(n.args[0], subst)
+            if n.payload == 0:
+                return "1.0", None
+            args, op = [base] * n.payload, "*"
+        else:
+            args = [self.pair(x, subst) for x in n.args]
+        if op == "*":  # a factor of exactly ±1 changes nothing but the sign: no rounding, no bound
+            sign = [a for a in args if a[1] is None and a[0] in ("1.0", "-1.0")]
+            args = [a for a in args if a not in sign] or [("1.0", None)]
+            if sum(a[0] == "-1.0" for a in sign) % 2:
+                args[0] = (f"(-{args[0][0]})", args[0][1])
+        acc = args[0]
+        for b in args[1:]:
+            acc = self._temporary(certified.operation(op, acc, b))
+        return acc
+
+    def _temporary(self, call: str) -> tuple[str, str]:
+        name = self.memo.get(call)
+        if name is None:
+            self.counter[0] += 1
+            name = self.memo[call] = f"_v{self.counter[0]}"
+            self.lines.append(f"{name}, {name}_e = {call}")
+            self.errors[name] = f"{name}_e"
+        return name, f"{name}_e"
+
+    def _compare(self, n: Node, subst: dict[str, str]) -> str:
+        """cert mode: the float comparison; the mask where it is NOT certain is named (once
+        per pair of values) and noted in `used`, for the caller to fold into _bad where the
+        decision matters (certified.py)."""
+        a, b = (self.pair(x, subst) for x in n.args)
+        text = f"({a[0]} {n.payload} {b[0]})"
+        if text in self.shared:
+            name = self.shared[text]
+        else:
+            name = text if any(_mentions(n, v) for v in subst) else self._shared(text)
+            check = certified.check(a, b)
+            if check is not None:
+                if f"check {check}" not in self.shared:
+                    self.counter[0] += 1
+                    self.shared[f"check {check}"] = f"_u{self.counter[0]}"
+                    self.lines.append(f"_u{self.counter[0]} = {check}")
+                self.uncertain[name] = self.shared[f"check {check}"]
+        if name in self.uncertain:
+            self.used.append(self.uncertain[name])
+        return name
+
+    def _flag(self, uncertain: list[str], where: str | None = None, given: tuple[str, ...] = ()) -> None:
+        """Rows where a decision that matters is uncertain go to the exact path: the rows of
+        `where` (the mask of the conjuncts `given`; None: every row). A mask already flagged
+        under a subset of those conjuncts covers these rows too."""
+        for u in dict.fromkeys(uncertain):
+            if any(v == u and set(before) <= set(given) for v, before in self.flagged):
+                continue
+            self.flagged.add((u, tuple(given) if where is not None else ()))
+            self.lines.append(f"_bad = _bad | {u}" if where is None else f"_bad = _bad | ({where} & {u})")
 
     def _quantified(self, n: Node, subst: dict[str, str]) -> str:
         """∀j P(j) over the family's index: P for every member at once, then np.all."""
@@ -129,8 +214,26 @@ class _Emitter:
         return name
 
     def _assigned(self, var: str) -> None:
-        """var has a new value: shared comparisons that read it are stale."""
-        self.shared = {t: n for t, n in self.shared.items() if not re.search(rf"\b{var}\b", t)}
+        """var has a new value: shared comparisons and temporaries that read it (directly or
+        through another temporary) are stale."""
+        stale = {var}
+        grew = True
+        while grew:
+            grew = False
+            for call, name in list(self.memo.items()):
+                if any(re.search(rf"\b{s}\b", call) for s in stale):
+                    del self.memo[call]
+                    stale.add(name)
+                    grew = True
+        self.shared = {t: n for t, n in self.shared.items()
+                       if not any(re.search(rf"\b{s}\b", t) for s in stale)}
+
+    def test(self, atom: Node) -> str:
+        """`enabled &= ...` for a test; in cert mode its uncertain rows are flagged."""
+        self.used = []
+        code = self.code(atom)
+        self._flag(self.used)
+        return self._enabled(code)
 
     def _enabled(self, masks: str) -> str:
         return f"enabled &= {self.skip} | {masks}" if self.skip else f"enabled &= {masks}"
@@ -142,9 +245,14 @@ class _Emitter:
                 self.statement(q)
         elif isinstance(p, Assign):
             name = _target_name(p.target, self.index)
-            self.lines.append(f"{name} = {self.code(p.value)}")
-            self.local[name] = name
+            value, error = self.value(p.value, {})
             self._assigned(name)
+            self.lines.append(f"{name} = {value}")
+            self.errors.pop(name, None)
+            if error is not None:
+                self.lines.append(f"{name}_e = {error}")
+                self.errors[name] = f"{name}_e"
+            self.local[name] = name
             self.opened.discard(name)
         elif isinstance(p, Havoc) and self.index is not None and _target_name(p.target, self.index):
             # an auxiliary value (xtr(i)) that a later test pins down: open until then
@@ -156,7 +264,7 @@ class _Emitter:
         elif isinstance(p, Test):
             for atom in _conjuncts(p.cond):
                 if atom.op != "true":
-                    self.lines.append(self._enabled(self.code(atom)))
+                    self.lines.append(self.test(atom))
         else:
             raise _refuse(p, "only assignments, tests, choices and min-updates are vectorised")
 
@@ -166,56 +274,92 @@ class _Emitter:
         self.lines.append(f"# choice: {' | '.join(p.labels)}")
         for alt, tag, label in zip(alts, tags, p.labels):
             self.lines.extend(alt.lines)
-            self.lines.append(f"case_{tag} = {' & '.join(alt.mask) if alt.mask else 'True'}  # {label}")
+            if self.mode != "cert" or not any(alt.unsure):
+                self.lines.append(f"case_{tag} = {' & '.join(alt.mask) if alt.mask else 'True'}  # {label}")
+                continue
+            # a conjunct's uncertainty matters only where the conjuncts before it hold (the
+            # first one that fails is then flagged if it is uncertain itself)
+            self.lines.append(f"case_{tag} = {alt.mask[0]}  # {label}")
+            self._flag(alt.unsure[0])
+            for n, (mask, unsure) in enumerate(zip(alt.mask[1:], alt.unsure[1:]), 1):
+                self._flag(unsure, f"case_{tag}", tuple(alt.mask[:n]))
+                self.lines.append(f"case_{tag} = case_{tag} & {mask}")
         masks = [f"case_{t}" for t in tags]
         changed = list(dict.fromkeys(v for alt in alts for v in alt.effects))
+        nan = "np.nan" if self.mode != "exact" else f"{certified.HELPERS}.NAN"
         for var in changed:
-            current = self.local.get(var, "np.nan")
-            values = [alt.effects.get(var, current) for alt in alts]
+            current = self.local.get(var, nan)
+            values = [alt.effects.get(var, (current, self.errors.get(current))) for alt in alts]
             # the first enabled alternative's value (np.where nested from the last: np.select
             # does the same ten times slower on small arrays)
-            picked = "np.nan"
-            for mask, value in reversed(list(zip(masks, values))):
+            picked = nan
+            for mask, (value, _) in reversed(list(zip(masks, values))):
                 picked = f"np.where({mask}, {value}, {picked})"
-            self.lines.append(f"{var} = {picked}")
-            self.local[var] = var
             self._assigned(var)
+            self.lines.append(f"{var} = {picked}")
+            self.errors.pop(var, None)
+            if any(e is not None for _, e in values):  # cert mode: the chosen value's bound too
+                picked = "np.nan"
+                for mask, (_, e) in reversed(list(zip(masks, values))):
+                    picked = f"np.where({mask}, {e or '0.0'}, {picked})"
+                self.lines.append(f"{var}_e = {picked}")
+                self.errors[var] = f"{var}_e"
+            self.local[var] = var
             self.opened.discard(var)
         self.lines.append(self._enabled(" | ".join(masks)))
+
+    def value(self, n: Node, subst: dict[str, str]) -> tuple[str, str | None]:
+        """(value code, error code or None): the error only in cert mode."""
+        if self.mode == "cert" and n.sort.is_numeric:
+            return self.pair(n, subst)
+        return self.code(n, subst), None
 
     def alternative(self, p: Program, tag: str) -> _Alternative:
         alt = _Alternative()
         opened: list[str] = sorted(self.opened)
         subst: dict[str, str] = {}
-        for q in p.parts if isinstance(p, Seq) else (p,):
-            if isinstance(q, Test):
-                for atom in _conjuncts(q.cond):
-                    solved = next((v for v in opened if v not in subst and _mentions(atom, v)), None)
-                    if solved is not None:
-                        value, divisor = _solve(atom, solved)
-                        name = f"{solved}_{tag}"
-                        alt.lines.append(f"{name} = {self.code(value, subst)}  # from {atom}")
-                        if divisor.op != "const":  # x*1 = 1 needs no guard
-                            alt.mask.append(f"({self.code(divisor, subst)} != 0)")
-                        subst[solved] = name
-                        alt.effects[solved] = name  # x := *; ?x = v  is  x := v
-                        continue
-                    if atom.op != "true":
-                        alt.mask.append(self.code(atom, subst))
-            elif isinstance(q, Havoc):
-                name = _target_name(q.target, self.index)
-                opened.append(name)
-                subst.pop(name, None)
-            elif isinstance(q, Assign):
-                name = _target_name(q.target, self.index)
-                value = self.code(q.value, subst)
-                alt.effects[name] = value
-                subst[name] = value
-            elif isinstance(q, Choice):
-                raise _refuse(q, "a choice nested in an alternative is not vectorised (flatten it into "
-                              "the outer choice)")
-            else:
-                raise _refuse(q, "only tests, assignments and `x := *` are vectorised inside a choice")
+        outer, self.lines = self.lines, alt.lines  # what the alternative computes goes with it
+        try:
+            for q in p.parts if isinstance(p, Seq) else (p,):
+                if isinstance(q, Test):
+                    for atom in _conjuncts(q.cond):
+                        solved = next((v for v in opened if v not in subst and _mentions(atom, v)), None)
+                        if solved is not None:
+                            value, divisor = _solve(atom, solved)
+                            if divisor.op != "const":  # x*1 = 1 needs no guard
+                                self.used = []
+                                alt.mask.append(self.code(divisor != 0, subst))
+                                alt.unsure.append(self.used)
+                            v, e = self.value(value, subst)
+                            if e is not None:  # cert mode: the temporary itself (shared checks)
+                                alt.lines.append(f"# {solved}_{tag} = {v} from {atom}")
+                                subst[solved] = v
+                                alt.effects[solved] = (v, e)  # x := *; ?x = v  is  x := v
+                                continue
+                            name = f"{solved}_{tag}"
+                            alt.lines.append(f"{name} = {v}  # from {atom}")
+                            subst[solved] = name
+                            alt.effects[solved] = (name, None)  # x := *; ?x = v  is  x := v
+                            continue
+                        if atom.op != "true":
+                            self.used = []
+                            alt.mask.append(self.code(atom, subst))
+                            alt.unsure.append(self.used)
+                elif isinstance(q, Havoc):
+                    name = _target_name(q.target, self.index)
+                    opened.append(name)
+                    subst.pop(name, None)
+                elif isinstance(q, Assign):
+                    name = _target_name(q.target, self.index)
+                    alt.effects[name] = self.value(q.value, subst)
+                    subst[name] = alt.effects[name][0]
+                elif isinstance(q, Choice):
+                    raise _refuse(q, "a choice nested in an alternative is not vectorised (flatten it "
+                                  "into the outer choice)")
+                else:
+                    raise _refuse(q, "only tests, assignments and `x := *` are vectorised inside a choice")
+        finally:
+            self.lines = outer
         for v in opened:
             if v not in subst and v not in self.opened:
                 raise ExtractError(f"`{v} := *` is never pinned down by a test; cannot extract")
@@ -235,8 +379,10 @@ def _target_name(target: Node, index: str | None) -> str:
     raise ExtractError(f"cannot vectorise the assignment to `{target}`")
 
 
-def _vectorised(theorem: Theorem, step: "_Step") -> str:
-    em = _Emitter(None)
+def _emit(step: "_Step", mode: str) -> tuple[_Emitter, list[str]]:
+    """The step's statements as numpy code in one mode; returns the emitter and the
+    variables reduced by a min over a family."""
+    em = _Emitter(None, mode)
     done = {q.each.done.payload for q in step.parts if isinstance(q, Loop) and q.each is not None}
     pending: dict[str, Havoc] = {}  # family `F := *` not yet pinned down by a test
     reductions: dict[str, None] = {}
@@ -259,18 +405,21 @@ def _vectorised(theorem: Theorem, step: "_Step") -> str:
                 pin = _family_pin(atom, pending)
                 if pin is None:
                     if atom.op != "true":
-                        em.lines.append(f"enabled &= {em.code(atom)}")
+                        em.lines.append(em.test(atom))
                     continue
                 name, value, var = pin
                 em.index = var
                 try:
-                    code = em.code(value)
+                    code, error = em.value(value, {})
                 finally:
                     em.index = None
                 dtype = "bool" if pending[name].target.sort.range == BOOL else "float"
-                em.lines.append(f"{name} = np.array({code}, dtype={dtype})  # from {_brief(atom)}")
-                em.local[name] = name
                 em._assigned(name)
+                em.lines.append(f"{name} = np.array({code}, dtype={dtype})  # from {_brief(atom)}")
+                if error is not None:
+                    em.lines.append(f"{name}_e = {error}")
+                    em.errors[name] = f"{name}_e"
+                em.local[name] = name
                 del pending[name]
                 em.pending.pop(name, None)
         elif isinstance(q, Assign):
@@ -285,39 +434,104 @@ def _vectorised(theorem: Theorem, step: "_Step") -> str:
     if unpinned:
         raise _refuse(pending[unpinned[0]], "the step read this family before, and no test "
                       f"`∀j ({unpinned[0]}(j) <-> ...)` pins its new value down")
+    return em, list(reductions)
+
+
+def _separable(step: "_Step", outputs: list[str], reductions: list[str]) -> bool:
+    """Rows independent: scalar set-up, then foreach loops over every member whose min-
+    reductions are the outputs (ctrl2). The exact path then redoes only uncertain rows."""
+    for q in step.parts:
+        if isinstance(q, Assign) and (q.target.op != "var" or _reads_family(q.value)):
+            return False
+        if isinstance(q, Loop) and (q.each is None or q.each.member.op != "true"):
+            return False
+        if isinstance(q, Choice):
+            return False
+        if isinstance(q, Havoc) and q.target.sort.is_array and not any(
+                isinstance(x, Loop) and x.each is not None and x.each.done.payload == q.target.payload
+                for x in step.parts):
+            return False
+        if isinstance(q, Test) and not any(_mentions(q.cond, x.each.done.payload) for x in step.parts
+                                           if isinstance(x, Loop) and x.each is not None):
+            return False
+    return set(outputs) <= set(reductions)
+
+
+def _vectorised(theorem: Theorem, step: "_Step") -> str:
+    em, reductions = _emit(step, "cert")
+    exact_em, _ = _emit(step, "exact")
     assigned = [v for v in em.local if em.local[v] == v]
     outputs = _outputs(theorem, step, assigned, [], set())
-    body = _without_dead(em.lines, keep={*outputs, "enabled", "skipped"})
     params = list(em.reads)
     families = list(em.families)
     _check_names(theorem, [*params, *families, *assigned], vectorised=True)
+    imports = f"{certified.IMPORT_EXACT}\n\nimport numpy as np\n\n{certified.IMPORT}"
     src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
                         inputs=params, families=families, what="discrete controller", how=VECTORISED,
-                        imports="import numpy as np")
+                        imports=imports)
     args = ", ".join([*params, *families])
     src += f"\n\ndef {ENTRY}({args}):\n"
     if outputs == ["k"] and "k" in reductions:
         src += ('    """The gain the proof allows, and whether the model has a run at all (if not,\n'
-                '    the caller must fall back). Families are 1-D arrays over the boundaries."""\n')
+                '    the caller must fall back). Families are 1-D arrays over the boundaries.\n\n'
+                '    Every decision is the real-valued model\'s on these inputs, and k is <= its real\n'
+                '    value (rounded down): see certiloop.kernel.extract.certified."""\n')
     else:
         returns = ", ".join(outputs)
         src += (f'    """Returns ({returns}, enabled): the values the proof allows, and whether the\n'
                 '    model has a run at all (if not, the caller must fall back; the other values are then\n'
                 '    meaningless). Families are 1-D numpy arrays over the boundaries (Bool families:\n'
-                '    arrays of bool)."""\n')
-    src += "    enabled = True\n"
+                '    arrays of bool). Every decision is the real-valued model\'s on these inputs, and\n'
+                '    real outputs are rounded down: see certiloop.kernel.extract.certified."""\n')
+    sorts = {v: _sort_of(theorem, v, REAL) for v in [*params, *families, *outputs]}
     src += "    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):\n"
+    src += f"        *values, enabled, ok = _filtered({args})  # {', '.join(outputs)}\n"
+    src += "    if np.all(ok):\n"
+    src += "        return *values, bool(np.all(enabled))\n"
+    src += "    # near-ties, or values the floats could not bound: decided exactly, in rationals\n"
+    src += f"    if not {certified.HELPERS}.finite({args}):\n"
+    src += f"        return {', '.join('np.nan' for _ in outputs)}, False  # not a real state\n"
+
+    def exact_args(rows: str | None) -> str:
+        out = []
+        for v in params:
+            out.append(f"{certified.HELPERS}.exact({v})" if sorts[v] == REAL else v)
+        for v in families:
+            real = sorts[v].range == REAL
+            cut = f"np.asarray({v}, dtype={'float' if real else 'bool'})" + (f"[{rows}]" if rows else "")
+            out.append(f"{certified.HELPERS}.exact({cut})" if real else cut)
+        return ", ".join(out)
+
+    floor = f"{certified.HELPERS}.floor"
+    whole = (f"    *exact, enabled = _exact({exact_args(None)})\n"
+             f"    return *({floor}(v) for v in exact), enabled\n")
+    if _separable(step, outputs, reductions):
+        src += "    if np.ndim(ok) == 0:  # a scalar test was uncertain: the whole step exactly\n"
+        src += "".join("    " + line + "\n" for line in whole.splitlines())
+        src += "    rows = np.flatnonzero(np.logical_not(ok))  # only those rows: they are independent\n"
+        src += f"    *exact, enabled_x = _exact({exact_args('rows')})\n"
+        src += (f"    return *(min(v, {floor}(x)) for v, x in zip(values, exact)), "
+                "bool(np.all(np.where(ok, enabled, True))) and enabled_x\n")
+    else:
+        src += whole
+
+    body = _without_dead(em.lines, keep={*outputs, "enabled", "skipped", "_bad"})
+    src += f"\n\ndef _filtered({args}):\n"
+    src += ('    """Floats with error bounds: the outputs (real ones rounded down) over the rows where\n'
+            '    every decision is certain, enabled, and ok: where they are (False: redo exactly)."""\n')
+    src += "    enabled = True\n    _bad = False\n"
     for line in body:
-        src += f"        {line}\n"
-    finite = ""
-    for v in outputs:
-        sort = _sort_of(theorem, v, REAL)
-        if sort == REAL:
-            finite += f" and bool(np.isfinite({v}))"
-        elif sort.is_array and sort.range == REAL:
-            finite += f" and bool(np.all(np.isfinite({v})))"
-    src += "    # floating-point overflow (1/(G fn²) for fn = 1e-160) is no run the proof covers\n"
-    src += f"    return {', '.join(outputs)}, bool(np.all(enabled)){finite}\n"
+        src += f"    {line}\n"
+    src += f"    return {', '.join(outputs)}, enabled, np.logical_not(_bad)\n"
+
+    body = _without_dead(exact_em.lines, keep={*outputs, "enabled", "skipped"})
+    src += f"\n\ndef _exact({args}):\n"
+    src += ('    """The same statements in exact rationals (object arrays of Fractions): the real\n'
+            '    model\'s decisions and outputs."""\n')
+    src += "    enabled = True\n"
+    for line in body:
+        src += f"    {line}\n"
+    src += f"    return {', '.join(outputs)}, bool(np.all(enabled))\n"
     return src
 
 
@@ -342,8 +556,9 @@ def _without_dead(lines: list[str], keep: set[str]) -> list[str]:
     xtr once the gain is computed): they cannot change the result."""
     out: list[str] = []
     for line in reversed(lines):
-        m = re.match(r"^(\w+) = ", line)
-        if m and m.group(1) not in keep and not any(re.search(rf"\b{m.group(1)}\b", later) for later in out):
+        m = re.match(r"^(\w+)(?:, (\w+))? = ", line)
+        names = [g for g in (m.groups() if m else ()) if g]
+        if names and not any(n in keep or any(re.search(rf"\b{n}\b", later) for later in out) for n in names):
             continue
         out.append(line)
     return list(reversed(out))
@@ -360,9 +575,10 @@ def _foreach(em: _Emitter, loop: Loop) -> list[str]:
     if not isinstance(index_havoc, Havoc) or index_havoc.target.op != "var":
         raise ExtractError(f"{loop.label}: expected `i := *` first")
     index = index_havoc.target.payload
-    inner_em = _Emitter(index)
+    inner_em = _Emitter(index, em.mode)
     inner_em.local.update({k: v for k, v in em.local.items()})
-    inner_em.counter = em.counter
+    inner_em.counter, inner_em.errors, inner_em.memo = em.counter, em.errors, dict(em.memo)
+    inner_em.flagged = em.flagged
     if loop.each.member.op != "true":
         inner_em.skip = "skipped"
         inner_em.lines.append(f"skipped = np.logical_not({inner_em.code(loop.each.member)})  "
@@ -372,7 +588,14 @@ def _foreach(em: _Emitter, loop: Loop) -> list[str]:
         red = _min_update(s)
         if red is not None:
             var, value = red
-            reductions.append((var, inner_em.code(value)))
+            v, e = inner_em.value(value, {})
+            if e is not None:  # cert mode: a lower bound, from floats where it is tight
+                loose = f"{certified.HELPERS}.loose({v}, {e})"
+                inner_em._flag([loose], "np.logical_not(skipped)" if inner_em.skip else None)
+                v = f"{certified.HELPERS}.lower({v}, {e})"
+            if em.mode == "cert":
+                v = f"np.where(_bad, np.inf, {v})"  # the rows the exact path redoes
+            reductions.append((var, v))
             continue
         inner_em.statement(s)
         for v in _scalars_written(s, inner_em.index):

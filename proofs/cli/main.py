@@ -86,6 +86,9 @@ def build_parser() -> argparse.ArgumentParser:
     extract.add_argument("--cache", metavar="DIR", help="proof cache folder (default .certiloop/cache, "
                          "or $CERTILOOP_CACHE): a model proved there under this exact claim is not re-proved")
     extract.add_argument("--no-cache", action="store_true", help="prove the model afresh")
+    extract.add_argument("--monitors", action="store_true",
+                         help="write the model's ModelPlex-style monitors (controller_monitor, "
+                         "plant_monitor) instead of its controller")
     _budget_flags(extract)
     extract.add_argument("--jobs", metavar="N", type=int, default=None,
                          help="worker processes for the proof (default: number of cores)")
@@ -136,16 +139,53 @@ def build_parser() -> argparse.ArgumentParser:
         "the scenario's claim holds (stop_margin, haptic_only: no crossing; paper: every window "
         "alarmed, no other alarm), 1 if not (the first crossing run is printed for replay).")
     campaign.add_argument("scenario", metavar="SCENARIO",
-                          help="raven.stop_margin, raven.haptic_only or raven.paper")
+                          help="raven.stop_margin, raven.haptic_only, raven.no_margin or raven.paper")
     campaign.add_argument("--faults", metavar="KIND,...",
                           help="fault kinds among stuck, delay, drop, jump, noise, drift (default all)")
     campaign.add_argument("--runs", metavar="N", type=int, help="runs (default 1000)")
     campaign.add_argument("--seed", metavar="S", type=int, default=0, help="random seed (default 0)")
     campaign.add_argument("--ticks", metavar="T", type=int,
                           help="1 kHz ticks per run (default 2000, at least 400)")
+    campaign.add_argument("--search", action="store_true", help="instead of random runs, let hypothesis "
+                          "search the faults for a boundary crossing and shrink the one it finds")
+    campaign.add_argument("--max-examples", metavar="N", type=int,
+                          help="faults the --search tries (default 500)")
+    campaign.add_argument("--jobs", metavar="N", type=int, default=1,
+                          help="worker processes for the batches (default 1; results do not change)")
+    campaign.add_argument("--executor", metavar="URL", help="run the batches on a Dask scheduler at "
+                          "URL (e.g. tcp://host:8786; results do not change)")
+    campaign.add_argument("--plot", metavar="F.png", help="write ROC and detection-latency plots to F.png "
+                          "(needs matplotlib: pip install 'certiloop[plot]')")
     campaign.add_argument("--csv", metavar="F", help="write one row per run to F (same seed, same bytes)")
     campaign.add_argument("--json", metavar="F", help="write the summary as JSON to F ('-' for stdout)")
     campaign.add_argument("-q", "--quiet", action="store_true", help="print only the summary line")
+
+    plan = sub.add_parser(
+        "plan", help="plan Raven-II motions with FMT* (OMPL) and certify every returned path",
+        description="Run FMT* (OMPL's og.FMT; needs certiloop[plan]) R times on SCENARIO with N "
+        "samples, seeds S, S+1, ...; every returned path is proved clear segment by segment with "
+        "interval arithmetic and re-checked independently before it counts as a success. Exit 0 "
+        "if some run returned a certified path, 1 if none did.")
+    plan.add_argument("scenario", metavar="SCENARIO", help="raven.frs_box (the paper's FRS-dome scene)")
+    plan.add_argument("--samples", metavar="N", type=int, required=True, help="FMT* samples per run")
+    plan.add_argument("--runs", metavar="R", type=int, default=1, help="runs (default 1)")
+    plan.add_argument("--eta", metavar="ETA1,ETA2", default="0.1,0.5",
+                      help="eq 1's weights of path length and tip acceleration (default 0.1,0.5, Table 2's)")
+    plan.add_argument("--seed", metavar="S", type=int, default=0, help="seed of run 0 (default 0)")
+    plan.add_argument("--radius-multiplier", metavar="X", type=float,
+                      help="FMT*'s radius multiplier on eq 2's r_n (default OMPL's 1.1)")
+    plan.add_argument("--wall-cap", metavar="S", type=float, default=600.0,
+                      help="wall-clock guard per run (default 600 s): reaching it is a failure that "
+                      "says so; the verdict otherwise depends only on samples and seed")
+    plan.add_argument("--json", metavar="F", help="write {\"runs\": [...], ...} to F ('-' for stdout)")
+    plan.add_argument("-q", "--quiet", action="store_true", help="print only the summary line")
+
+    check_path = sub.add_parser(
+        "check-path", help="re-check the certificates of a `certiloop plan --json` file",
+        description="Re-check every certified path in FILE independently (mpmath interval "
+        "arithmetic over the Raven-II DH chain): exit 0 if every segment is proved clear of "
+        "the scene, 1 naming the first bad segment.")
+    check_path.add_argument("file", metavar="FILE", help="a `certiloop plan --json` output")
     return parser
 
 
@@ -235,6 +275,8 @@ def _main(argv: list[str] | None) -> int:
         return cmd_extract(args)
     if args.command == "campaign":
         return cmd_campaign(args)
+    if args.command in ("plan", "check-path"):
+        return cmd_plan_or_check(args)
     raise BadInput(f"unknown command {args.command}")  # pragma: no cover
 
 
@@ -317,6 +359,13 @@ def _json_payload(done: list[dict], selected: int, single: bool = True):
     if len(done) < selected:
         return {"partial": True, "finished": len(done), "selected": selected, "results": done}
     return done[0] if single and len(done) == 1 else done
+
+
+def _need_matplotlib() -> None:
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise BadInput("--plot needs matplotlib: pip install 'certiloop[plot]'") from None
 
 
 def _write_json(target: str | None, payload) -> None:
@@ -493,7 +542,12 @@ def cmd_extract(args: argparse.Namespace) -> int:
         print(f"certiloop: error: refusing to extract {theorem.name}: it is {verdict}, not proved{why}",
               file=sys.stderr)
         return EXIT_FAILED
-    source = extract(theorem)
+    if args.monitors:
+        from certiloop.kernel.extract.modelplex import monitors
+
+        source = monitors(theorem)
+    else:
+        source = extract(theorem)
     if args.output:
         Path(args.output).write_text(source)
         if level > ui.QUIET:
@@ -516,10 +570,7 @@ def _check_falsify_args(args: argparse.Namespace) -> None:
     _check_outputs(("--json", args.json, "file or -"), ("--plot", args.plot, "file"),
                    ("--database", database, "folder"))
     if args.plot:
-        try:
-            import matplotlib  # noqa: F401
-        except ImportError:
-            raise BadInput("--plot needs matplotlib: pip install 'certiloop[plot]'") from None
+        _need_matplotlib()
 
 
 def cmd_falsify(args: argparse.Namespace) -> int:
@@ -593,6 +644,8 @@ def cmd_campaign(args: argparse.Namespace) -> int:
         if given:
             raise BadInput(f"{setup.name} is a fixed experiment; {', '.join(given)} does not apply")
     kinds = _campaign_kinds(args.faults or "all")
+    if args.search or args.max_examples is not None:
+        return _campaign_search(args, setup, kinds)
     args.runs = 1000 if args.runs is None else args.runs
     args.ticks = setup.ticks if args.ticks is None else args.ticks
     if not 1 <= args.runs <= MAX_RUNS:
@@ -601,23 +654,111 @@ def cmd_campaign(args: argparse.Namespace) -> int:
         raise BadInput(f"--seed must be between 0 and {MAX_SEED}, got {args.seed}")
     if args.ticks < 400:
         raise BadInput(f"--ticks must be at least 400, got {args.ticks}")
-    _check_outputs(("--csv", args.csv, "file"), ("--json", args.json, "file or -"))
+    if args.jobs < 1:
+        raise BadInput(f"--jobs must be at least 1, got {args.jobs}")
+    if args.jobs > 1 and args.executor:
+        raise BadInput("--jobs and --executor exclude each other (the executor has its own workers)")
+    _check_outputs(("--csv", args.csv, "file"), ("--json", args.json, "file or -"),
+                   ("--plot", args.plot, "file"))
+    if args.plot:
+        _need_matplotlib()
     from certiloop.falsify.campaign import run_setup
     from certiloop.falsify.campaign_report import show_campaign, summary, write_campaign_csv
     from certiloop.proofs.cli import ui
 
     out = console(stderr=args.json == "-")
     start, batch = time.perf_counter(), 500
-    with ui.ModelProgress("campaign", 1, not args.quiet) as progress:
+    with _campaign_executor(args) as executor, ui.ModelProgress("campaign", 1, not args.quiet) as progress:
         progress.model(setup.name)
         progress.steps(-(-args.runs // batch))
-        rows = run_setup(setup, kinds, args.runs, args.seed, args.ticks, batch, on_batch=progress.step)
+        rows = run_setup(setup, kinds, args.runs, args.seed, args.ticks, batch, on_batch=progress.step,
+                         executor=executor)
     doc = summary(setup, rows, kinds, args.seed, args.ticks)
     if args.csv:
         write_campaign_csv(rows, Path(args.csv))
+    if args.plot:
+        from certiloop.falsify.campaign_plots import plot_campaign
+
+        plot_campaign(rows, doc, Path(args.plot))
     _write_json(args.json, doc)
     show_campaign(out, doc, quiet=args.quiet, seconds=time.perf_counter() - start)
     return EXIT_OK if doc["holds"] else EXIT_FAILED
+
+
+def _campaign_search(args: argparse.Namespace, setup, kinds: tuple) -> int:
+    """`campaign SCENARIO --search`: hypothesis looks for a crossing fault (exit 1 if found)."""
+    from certiloop.falsify.campaign import MAX_SEED
+
+    if not args.search:
+        raise BadInput("--max-examples applies to --search only")
+    if setup.schedule == "paper":
+        raise BadInput(f"{setup.name} is a fixed experiment; --search does not apply")
+    flags = (("--runs", args.runs), ("--csv", args.csv), ("--plot", args.plot), ("--executor", args.executor),
+             ("--jobs", args.jobs if args.jobs != 1 else None))
+    given = [flag for flag, value in flags if value is not None]
+    if given:
+        raise BadInput(f"{', '.join(given)} does not apply to --search (one run per fault tried)")
+    examples = 500 if args.max_examples is None else args.max_examples
+    ticks = setup.ticks if args.ticks is None else args.ticks
+    if not 1 <= examples <= 100_000:
+        raise BadInput(f"--max-examples must be between 1 and 100,000, got {examples}")
+    if not 0 <= args.seed <= MAX_SEED:
+        raise BadInput(f"--seed must be between 0 and {MAX_SEED}, got {args.seed}")
+    if ticks < 400:
+        raise BadInput(f"--ticks must be at least 400, got {ticks}")
+    _check_outputs(("--json", args.json, "file or -"))
+    from certiloop.falsify.campaign_report import search_summary, show_search
+    from certiloop.falsify.campaign_search import worst_case
+    from certiloop.proofs.cli import ui
+
+    out = console(stderr=args.json == "-")
+    start = time.perf_counter()
+    with ui.ModelProgress("campaign --search", 1, not args.quiet) as progress:
+        progress.model(setup.name)
+        result = worst_case(setup, kinds, examples, args.seed, ticks)
+    doc = search_summary(setup, result, kinds, args.seed, ticks, examples)
+    _write_json(args.json, doc)
+    show_search(out, doc, seconds=time.perf_counter() - start)
+    return EXIT_OK if doc["holds"] else EXIT_FAILED
+
+
+@contextlib.contextmanager
+def _campaign_executor(args: argparse.Namespace):
+    """The campaign's batches run here: None (this process), a local process pool (--jobs) or a
+    Dask cluster (--executor, which the campaign leaves running)."""
+    if args.executor:
+        from certiloop.proofs.engine.prover import _dask_executor
+
+        try:
+            executor = _dask_executor(args.executor)
+        except ImportError as exc:
+            raise BadInput(str(exc)) from None
+        try:
+            yield executor
+        finally:
+            executor.shutdown(wait=False)
+            executor._certiloop_client.close()
+    elif args.jobs > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor
+
+        with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("fork")) as pool:
+            yield pool
+    else:
+        yield None
+
+
+def cmd_plan_or_check(args: argparse.Namespace) -> int:
+    from certiloop.proofs.cli import plan_cmd, ui
+
+    try:
+        if args.command == "check-path":
+            return plan_cmd.cmd_check_path(args, console())
+        _check_outputs(("--json", args.json, "file or -"))
+        with ui.ModelProgress("planning", 1, not args.quiet) as progress:
+            return plan_cmd.cmd_plan(args, console(stderr=args.json == "-"), progress)
+    except plan_cmd.PlanInputError as exc:
+        raise BadInput(str(exc)) from None
 
 
 if __name__ == "__main__":  # pragma: no cover
