@@ -268,7 +268,9 @@ def check_well_formed(t: Theorem) -> None:
     prog_syms = program_symbols(t.program)
     # An assumption names a *constant* only if the program never writes it; a guarantee
     # about a symbol nobody mentions anywhere else is almost always a typo.
-    mentioned = set(free_vars(t.assumptions)) | set(prog_syms) | _written_in_modalities(t.guarantee)
+    # (a declared constant counts too: .kyx archives declare every symbol)
+    mentioned = (set(free_vars(t.assumptions)) | set(prog_syms) | _written_in_modalities(t.guarantee)
+                 | {c.payload for c in t.constants})
     for name in free_vars(t.guarantee):
         if name not in mentioned:
             raise ModelError(

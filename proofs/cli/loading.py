@@ -16,6 +16,9 @@ def load_all(specs: list[str]) -> list[Theorem]:
     A selection that matches nothing is bad input."""
     theorems: list[Theorem] = []
     for spec in specs:
+        if _kyx_spec(spec) is not None:
+            theorems.extend(load_kyx(*_kyx_spec(spec)))
+            continue
         family = [n for n in library.names() if n.startswith(f"{spec}.")] if "." not in spec else []
         if family:
             theorems.extend(library.get(n) for n in family)
@@ -27,7 +30,57 @@ def load_all(specs: list[str]) -> list[Theorem]:
     return theorems
 
 
+def _kyx_spec(spec: str) -> tuple[str, str | None] | None:
+    """`FILE.kyx` or `FILE.kyx:"Entry name"` (entry names may hold ':', quotes optional)."""
+    cut = spec.find(".kyx")
+    while cut != -1:
+        end = cut + len(".kyx")
+        if end == len(spec):
+            return spec, None
+        if spec[end] == ":":
+            entry = spec[end + 1:]
+            if len(entry) >= 2 and entry[0] == entry[-1] == '"':
+                entry = entry[1:-1]
+            return spec[:end], entry
+        cut = spec.find(".kyx", end)
+    return None
+
+
+def load_kyx(path_text: str, entry: str | None = None) -> list[Theorem]:
+    """Every entry of a KeYmaera X archive, or the one named; an entry certiloop cannot read
+    is bad input, named with its line and column."""
+    from certiloop.models.kyx import read_entries
+
+    path = Path(path_text)
+    if not path.is_file():
+        raise ModelError(f"{path_text}: no such file (paths are relative to the current folder)")
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ModelError(f"{path_text}: cannot be read: {exc}") from None
+    entries = read_entries(text, path_text, only=entry)
+    if entry is not None:
+        chosen = [e for e in entries if e.name == entry]
+        if not chosen:
+            names = ", ".join(repr(e.name) for e in entries[:5])
+            raise ModelError(f"{path_text}: no entry named {entry!r} (it has: {names}"
+                             f"{', ...' if len(entries) > 5 else ''})")
+        entries = chosen
+    bad = [e for e in entries if e.theorem is None]
+    if bad:
+        more = f" (and {len(bad) - 1} more entries)" if len(bad) > 1 else ""
+        raise ModelError(f"entry {bad[0].name!r}: {bad[0].error}{more}")
+    if not entries:
+        raise ModelError(f"{path_text}: the archive has no entries")
+    return [e.theorem for e in entries if e.theorem is not None]
+
+
 def load(spec: str) -> Theorem:
+    if _kyx_spec(spec) is not None:
+        found = load_kyx(*_kyx_spec(spec))
+        if len(found) != 1:
+            raise ModelError(f"{spec}: holds {len(found)} entries; name one, as {spec}:\"Entry name\"")
+        return found[0]
     before = spec.rsplit(":", 1)[0]
     if ":" in spec and (before.endswith(".py") or "/" in spec or Path(before).exists()):
         return _from_file(*spec.rsplit(":", 1))

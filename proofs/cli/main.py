@@ -31,6 +31,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     listing = sub.add_parser("list", help="models in the library and their expected verdicts",
                              description="List the library's models with their expected verdicts.")
+    listing.add_argument("models", nargs="*", metavar="MODEL",
+                         help="list only these (a family, path/to/file.py:theorem, FILE.kyx[:\"Entry\"])")
     listing.add_argument("--json", action="store_true",
                          help="print [{\"model\", \"expected\", \"description\"}] instead of a table")
 
@@ -122,6 +124,16 @@ def build_parser() -> argparse.ArgumentParser:
                       "or $CERTILOOP_CACHE)")
     gate.add_argument("--no-cache", action="store_true", help="prove everything afresh")
     _verbosity_flags(gate, "every model's checks and its obligations not proved")
+
+    export = sub.add_parser(
+        "export", help="write models as a KeYmaera X archive (.kyx)",
+        description="Write MODEL(s) as one KeYmaera X archive with certiloop's invariants as "
+        "@invariant annotations; what .kyx has no syntax for (branch labels, expected verdict) "
+        "goes into a /*@certiloop ...*/ comment, so `certiloop prove F.kyx` reads back the same "
+        "models. A model .kyx cannot express (arrays, families, integers) is bad input.")
+    export.add_argument("models", nargs="+", metavar="MODEL", help="library name, family or file")
+    export.add_argument("--kyx", action="store_true", required=True, help="the format (the only one)")
+    export.add_argument("-o", "--output", metavar="FILE", help="write the archive to FILE (default: stdout)")
 
     campaign = sub.add_parser(
         "campaign", help="inject faults into a simulated closed loop and measure the monitor",
@@ -255,7 +267,9 @@ def _main(argv: list[str] | None) -> int:
         build_parser().print_help()
         return EXIT_BAD_INPUT
     if args.command == "list":
-        return cmd_list(args.json)
+        return cmd_list(args.json, args.models)
+    if args.command == "export":
+        return cmd_export(args)
     if args.command == "prove":
         return cmd_prove(args)
     if args.command == "gate":
@@ -278,29 +292,43 @@ def console(stderr: bool = False):
     return ui.console(stderr)
 
 
-def cmd_list(as_json: bool = False) -> int:
+def cmd_list(as_json: bool = False, models: list[str] | None = None) -> int:
     from rich.markup import escape
 
     from certiloop.models import library
     from certiloop.proofs.cli import ui
+    from certiloop.proofs.cli.loading import load_all
 
+    theorems = load_all(models) if models else [library.get(n) for n in library.names()]
     if as_json:
-        print(json.dumps([{"model": n, "expected": library.get(n).expected,
-                           "description": library.get(n).description} for n in library.names()], indent=2))
+        print(json.dumps([{"model": t.name, "expected": t.expected, "description": t.description}
+                          for t in theorems], indent=2))
         return EXIT_OK
     out = ui.console()
     table = ui.table(out)
     table.add_column("model", no_wrap=True)
     table.add_column("expected", no_wrap=True)
     table.add_column("what it is", min_width=20)
-    for name in library.names():
-        t = library.get(name)
-        table.add_row(escape(name), t.expected, escape(t.description))
+    for t in theorems:
+        table.add_row(escape(t.name), t.expected, escape(t.description))
     if _narrowest(out, table) <= out.width:
         out.print(table)
     else:  # names too long for a table at this width: a paragraph per model
-        for name in library.names():
-            ui.say(out, f"{name} ({library.get(name).expected}): {library.get(name).description}")
+        for t in theorems:
+            ui.say(out, f"{t.name} ({t.expected}): {t.description}")
+    return EXIT_OK
+
+
+def cmd_export(args: argparse.Namespace) -> int:
+    from certiloop.models.kyx import write_archive
+    from certiloop.proofs.cli.loading import load_all
+
+    _check_outputs(("-o", args.output, "file"))
+    text = write_archive(load_all(args.models))  # NotExpressible is a ModelError: exit 2
+    if args.output:
+        Path(args.output).write_text(text)
+    else:
+        sys.stdout.write(text)
     return EXIT_OK
 
 
@@ -431,8 +459,9 @@ def cmd_prove(args: argparse.Namespace) -> int:
                 ui.ModelProgress("proving", len(theorems), level > ui.QUIET) as progress:
             for theorem in theorems:
                 progress.model(theorem.name)
-                result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
-                                      smtlib_dir=smt_dir)
+                with _naming(theorem.name):
+                    result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
+                                          smtlib_dir=smt_dir)
                 if args.cross_check:
                     _cross_check(result)
                 show_result(out, result, level)
@@ -445,6 +474,19 @@ def cmd_prove(args: argparse.Namespace) -> int:
                 f"({time.perf_counter() - start:.1f} s)")
     _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
     return _prove_exit(results)
+
+
+@contextlib.contextmanager
+def _naming(model: str):
+    """A model the engine cannot handle (a rule it lacks) is bad input: say which model."""
+    from certiloop.models.lang.terms import ModelError
+
+    try:
+        yield
+    except ModelError as exc:
+        if model in str(exc):
+            raise
+        raise ModelError(f"{model}: {exc}") from None
 
 
 def _prove_exit(results: list) -> int:

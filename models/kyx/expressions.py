@@ -1,0 +1,447 @@
+"""Build certiloop terms, formulas and programs from one entry's parse trees (definitions
+expanded, abs/min/max split into cases, differential symbols and old(x) translated)."""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any
+
+from lark import Token, Tree
+
+from certiloop.models.kyx.syntax import BUILTINS, KyxError, Scope, _where
+from certiloop.models.lang.programs import (
+    Choice,
+    Program,
+    assign,
+    choice,
+    havoc,
+    if_,
+    loop,
+    ode,
+    seq,
+    test,
+)
+from certiloop.models.lang.terms import (
+    BOOL,
+    FALSE,
+    TRUE,
+    And,
+    Box,
+    Diamond,
+    Exists,
+    ForAll,
+    Iff,
+    Implies,
+    ModelError,
+    Node,
+    Not,
+    Or,
+    Real,
+    Var,
+    cmp,
+    const,
+    div,
+    free_vars,
+    neg,
+    substitute,
+)
+
+
+class Builder:
+    """Turns one entry's trees into nodes and programs."""
+
+    def __init__(self, scope: Scope, prime_names: dict[str, str], taken: set[str] = frozenset()):
+        self.scope = scope
+        self.taken = set(taken)  # every name the entry spells: made-up names must differ
+        self.source = scope.source
+        self.primes = prime_names  # x -> the variable standing for x'
+        self.cases: dict[str, tuple[str, tuple[Node, ...]]] = {}  # marker -> (abs|min|max, args)
+        self.expanding: list[str] = []
+        self.olds: dict[str, Node] | None = None  # in ODE annotations: old(e) -> its variable
+
+    def old(self, e: Node) -> Node:
+        """old(e) in an ODE's annotation: e's value before the ODE, kept in a fresh variable."""
+        assert self.olds is not None
+        for name, value in self.olds.items():
+            if value.same(e):
+                return Real(name)
+        used = self._used() | set(self.olds)
+        base = f"{e.payload}_old" if e.op == "var" else "old"
+        candidate, k = base, 1
+        while candidate in used:
+            k += 1
+            candidate = f"{base}{k}"
+        self.olds[candidate] = e
+        return Real(candidate)
+
+    def _used(self) -> set[str]:
+        return self.taken | set(self.primes.values()) | set(self.scope.variables) | set(self.scope.defs)
+
+    def fail(self, where: Any, message: str) -> KyxError:
+        return KyxError(f"{_where(self.source, where)}: {message}")
+
+    # ---- differential symbols
+    def prime(self, name: str) -> Node:
+        if name not in self.primes:
+            used = self._used() | set(self.olds or {})
+            candidate, k = f"{name}_prime", 1
+            while candidate in used:
+                k += 1
+                candidate = f"{name}_prime{k}"
+            self.primes[name] = candidate
+        return Real(self.primes[name])
+
+    def differential(self, e: Node, where: Any) -> Node:
+        op = e.op
+        if op == "const":
+            return const(0)
+        if op == "var":
+            d = self.scope.defs.get(e.payload)
+            if d is not None and d.kind == "constant":
+                return const(0)
+            if e.payload in self.primes.values():
+                raise self.fail(where, f"the differential of the differential symbol `{e.payload}`")
+            return self.prime(e.payload)
+        if op == "+":
+            return _sum(self.differential(a, where) for a in e.args)
+        if op == "neg":
+            return neg(self.differential(e.args[0], where))
+        if op == "*":
+            terms = []
+            for i, a in enumerate(e.args):
+                rest = [b for j, b in enumerate(e.args) if j != i]
+                terms.append(_product([self.differential(a, where), *rest]))
+            return _sum(terms)
+        if op == "/":
+            a, b = e.args
+            return div(self.differential(a, where) * b - a * self.differential(b, where), b ** 2)
+        if op == "^":
+            n = e.payload
+            base = e.args[0]
+            return const(0) if n == 0 else n * base ** (n - 1) * self.differential(base, where)
+        raise self.fail(where, f"cannot take the differential of `{e}`")
+
+    # ---- terms and formulas
+    def expr(self, t: Any, env: dict[str, Node]) -> Node:
+        if isinstance(t, Token):
+            raise self.fail(t, f"unexpected {t!r}")  # pragma: no cover
+        rule = getattr(self, f"e_{t.data}", None)
+        if rule is None:
+            raise self.fail(t, f"`{t.data}` is not supported here")
+        return rule(t, env)
+
+    def e_number(self, t, env):
+        text = str(t.children[0])
+        return const(int(text)) if text.isdigit() else const(Fraction(text))
+
+    def e_true(self, t, env):
+        return TRUE
+
+    def e_false(self, t, env):
+        return FALSE
+
+    def e_symbol(self, t, env):
+        name = str(t.children[0])
+        if name in env:
+            return env[name]
+        d = self.scope.defs.get(name)
+        if d is not None and d.kind in ("term", "formula"):
+            return self.call(t, name, [], env)
+        if d is not None and d.kind == "program":
+            raise self.fail(t, f"`{name}` is a program, used here as a term")
+        if name in self.scope.bools:
+            return Var(name, BOOL)
+        return Real(name)
+
+    def e_diffsym(self, t, env):
+        return self.prime(str(t.children[0])[:-1])
+
+    def e_differential(self, t, env):
+        return self.differential(self.expr(t.children[0], env), t)
+
+    def e_call(self, t, env):
+        name, *args = t.children
+        return self.call(t, str(name), args, env)
+
+    def call(self, t, name: str, arg_trees: list, env: dict[str, Node]) -> Node:
+        args = [self.expr(a, env) for a in arg_trees]
+        if name == "old" and self.olds is not None and len(args) == 1:
+            return self.old(args[0])
+        if name in BUILTINS:
+            want = 1 if name == "abs" else 2
+            if len(args) != want:
+                raise self.fail(t, f"{name} takes {want} argument(s), got {len(args)}")
+            marker = f"{name}@{len(self.cases) + 1}"
+            self.cases[marker] = (name, tuple(args))
+            return Real(marker)
+        d = self.scope.defs.get(name)
+        if d is None:
+            if name == "sqrt" or name in ("exp", "sin", "cos", "ln"):
+                raise self.fail(t, f"`{name}` is not supported (no real-closed-field encoding)")
+            if args:
+                raise self.fail(t, f"undeclared function `{name}` with arguments is not supported")
+            return Real(name)
+        if d.kind == "constant":
+            if args:
+                raise self.fail(t, f"`{name}` is a constant, called with arguments")
+            return Var(name, BOOL) if name in self.scope.bools else Real(name)
+        if d.kind == "program":
+            raise self.fail(t, f"`{name}` is a program, used here as a term")
+        if len(args) != len(d.params):
+            raise self.fail(t, f"`{name}` takes {len(d.params)} argument(s), got {len(args)}")
+        if name in self.expanding:
+            raise self.fail(t, f"definition of `{name}` refers to itself")
+        self.expanding.append(name)
+        try:
+            return self.expr(d.body, dict(zip(d.params, args)))
+        finally:
+            self.expanding.pop()
+
+    def e_neg(self, t, env):
+        return neg(self._num(t.children[0], env))
+
+    def _num(self, t, env) -> Node:
+        n = self.expr(t, env)
+        if n.sort == BOOL:
+            raise self.fail(t, f"`{n}` is a formula, used here as a term")
+        return n
+
+    def _bool(self, t, env) -> Node:
+        n = self.expr(t, env)
+        if n.sort != BOOL:
+            raise self.fail(t, f"`{n}` is a term, used here as a formula")
+        return n
+
+    def e_sum(self, t, env):
+        out = self._num(t.children[0], env)
+        for op, rhs in zip(t.children[1::2], t.children[2::2]):
+            r = self._num(rhs, env)
+            out = out + r if str(op) == "+" else out - r
+        return out
+
+    def e_product(self, t, env):
+        out = self._num(t.children[0], env)
+        for op, rhs in zip(t.children[1::2], t.children[2::2]):
+            r = self._num(rhs, env)
+            if str(op) == "*":
+                out = out * r
+            elif out.op == "const" and r.op == "const":  # a rational literal such as 1/3
+                if r.payload == 0:
+                    raise self.fail(rhs, "division by the constant 0")
+                out = const(out.payload / r.payload)
+            else:
+                if r.op == "const" and r.payload == 0:
+                    raise self.fail(rhs, "division by the constant 0")
+                out = div(out, r)
+        return out
+
+    def e_power(self, t, env):
+        base = self._num(t.children[0], env)
+        exponent = self._num(t.children[1], env)
+        if exponent.op == "^" and exponent.args[0].op == "const":  # 2^3 in x^2^3: a number
+            exponent = const(exponent.args[0].payload ** exponent.payload)
+        if exponent.op != "const" or exponent.payload.denominator != 1 or exponent.payload < 0:
+            raise self.fail(t.children[1], f"exponent `{exponent}` is not supported: only natural "
+                            "number literals")
+        return base ** int(exponent.payload)
+
+    def e_comparison(self, t, env):
+        a, op, b = t.children
+        left, right = self.expr(a, env), self.expr(b, env)
+        if left.sort == BOOL or right.sort == BOOL:
+            raise self.fail(op, "comparison of formulas is not supported")
+        node = cmp({"=": "==", "!=": "!="}.get(str(op), str(op)), left, right)
+        return self.split_cases(node)
+
+    def split_cases(self, f: Node) -> Node:
+        """Replace abs/min/max markers in a first-order formula by a case split."""
+        markers = [m for m in free_vars(f) if m in self.cases]
+        if not markers:
+            return f
+        m = markers[0]
+        kind, args = self.cases[m]
+        out = Or(*(And(guard, substitute(f, {m: value})) for guard, value in _cases(kind, args)))
+        return self.split_cases(out)
+
+    def e_not_(self, t, env):
+        return Not(self._bool(t.children[0], env))
+
+    def e_conjunction(self, t, env):
+        return And(*(self._bool(c, env) for c in t.children))
+
+    def e_disjunction(self, t, env):
+        return Or(*(self._bool(c, env) for c in t.children))
+
+    def e_implication(self, t, env):
+        return Implies(self._bool(t.children[0], env), self._bool(t.children[1], env))
+
+    def e_reverse_implies(self, t, env):
+        return Implies(self._bool(t.children[-1], env), self._bool(t.children[0], env))
+
+    def e_equiv(self, t, env):
+        return Iff(self._bool(t.children[0], env), self._bool(t.children[1], env))
+
+    def e_quantifier(self, t, env):
+        q, *names, body = t.children
+        for n in names:
+            if str(n) in self.scope.defs:
+                raise self.fail(n, f"cannot quantify over `{n}`: it is declared in Definitions")
+        inner = {k: v for k, v in env.items() if k not in {str(n) for n in names}}
+        variables = [Real(str(n)) for n in names]
+        f = self._bool(body, inner)
+        return ForAll(variables, f) if str(q) == "\\forall" else Exists(variables, f)
+
+    def e_box(self, t, env):
+        return Box(self.program(t.children[0], env), self._bool(t.children[1], env))
+
+    def e_diamond(self, t, env):
+        return Diamond(self.program(t.children[0], env), self._bool(t.children[1], env))
+
+    # ---- programs
+    def program(self, t: Tree, env: dict[str, Node]) -> Program:
+        rule = getattr(self, f"p_{t.data}", None)
+        if rule is None:
+            raise self.fail(t, f"program `{t.data}` is not supported")
+        return rule(t, env)
+
+    def p_choice(self, t, env):
+        alternatives = [self.program(c, env) for c in t.children]
+        if len(alternatives) == 1:
+            return alternatives[0]
+        # built directly, not with `choice`, so `{a ++ b} ++ c` keeps its shape
+        return Choice(tuple(alternatives), tuple(f"branch {i}" for i in range(1, len(alternatives) + 1)))
+
+    def p_sequence(self, t, env):
+        return seq(*(self.program(c, env) for c in t.children))
+
+    def p_group(self, t, env):
+        return self.program(t.children[0], env)
+
+    def p_if_then(self, t, env):
+        cond = self._bool(t.children[0], env)
+        then = self.program(t.children[1], env)
+        other = self.program(t.children[2], env) if len(t.children) > 2 else None
+        return if_(self._first_order(cond, t.children[0]), then, other)
+
+    def _first_order(self, f: Node, where) -> Node:
+        if any(m in self.cases for m in free_vars(f)):  # pragma: no cover - split at comparisons
+            raise self.fail(where, "abs/min/max left in a formula")
+        return f
+
+    def p_assign(self, t, env):
+        name, value = t.children
+        return self._assign(self._target(name, env), self._num(value, env), value)
+
+    def p_diff_assign(self, t, env):
+        name, value = t.children
+        return self._assign(self.prime(str(name)[:-1]), self._num(value, env), value)
+
+    def _target(self, name: Token, env) -> Node:
+        n = str(name)
+        d = self.scope.defs.get(n)
+        if n in env or (d is not None and d.kind != "constant"):
+            raise self.fail(name, f"cannot assign to `{n}`: it is a parameter or a definition")
+        if d is not None:
+            raise self.fail(name, f"cannot assign to the constant `{n}` (declared in Definitions)")
+        return Real(n)
+
+    def _assign(self, target: Node, value: Node, where) -> Program:
+        markers = [m for m in free_vars(value) if m in self.cases]
+        if not markers:
+            return assign(target, value)
+        kind, args = self.cases[markers[0]]
+        return choice(*(seq(test(self.split_cases(guard)),
+                            self._assign(target, substitute(value, {markers[0]: v}), where))
+                        for guard, v in _cases(kind, args)))
+
+    def p_havoc(self, t, env):
+        return havoc(self._target(t.children[0], env))
+
+    def p_test(self, t, env):
+        return test(self._bool(t.children[0], env))
+
+    def p_program_call(self, t, env):
+        name = str(t.children[0])
+        d = self.scope.defs.get(name)
+        if d is None or d.kind != "program":
+            raise self.fail(t, f"`{name}` is not a defined program (HP {name} ::= {{...}};)")
+        if name in self.expanding:
+            raise self.fail(t, f"program `{name}` refers to itself")
+        self.expanding.append(name)
+        try:
+            return self.program(d.body, {})
+        finally:
+            self.expanding.pop()
+
+    def p_loop(self, t, env):
+        body, _star, *notes = t.children
+        invariants = self._annotations(notes, env)
+        return loop(self.program(body, env), And(*invariants) if invariants else None)
+
+    def p_ode(self, t, env):
+        eqs_tree, *rest = t.children
+        domain_tree = rest[0] if rest and rest[0].data != "annotation" else None
+        notes = rest[1:] if domain_tree is not None else rest
+        eqs: list[tuple[Node, Node]] = []
+        for eq in eqs_tree.children:
+            lhs, rhs = eq.children
+            value = self._num(rhs, env)
+            bad = [m for m in free_vars(value) if m in self.cases or m in self.primes.values()]
+            if bad:
+                raise self.fail(rhs, "abs/min/max or a differential symbol in an ODE right-hand side "
+                                "is not supported")
+            eqs.append((Real(str(lhs)[:-1]), value))
+        domain = TRUE if domain_tree is None else self._bool(domain_tree, env)
+        outer, self.olds = self.olds, {}
+        try:
+            invariants = self._annotations(notes, env)
+            olds = self.olds
+        finally:
+            self.olds = outer
+        # along the flow x' equals its right-hand side (only primes already in use matter)
+        flow = {self.primes[x.payload]: f for x, f in eqs if x.payload in self.primes}
+        domain, invariants = substitute(domain, flow), [substitute(i, flow) for i in invariants]
+        try:
+            system = ode(eqs, domain, invariants=invariants)
+        except ModelError as exc:
+            raise self.fail(t, str(exc)) from None
+        # old(e): remember e just before the flow
+        return seq(*(assign(Real(n), e) for n, e in olds.items()), system) if olds else system
+
+    def _annotations(self, notes: list[Tree], env) -> list[Node]:
+        out: list[Node] = []
+        for note in notes:
+            kind, *formulas = note.children
+            if str(kind) != "@invariant":
+                continue  # @variant: for diamond proofs, which do not use it
+            for f in formulas:
+                out.append(self._bool(f, env))
+        return out
+
+
+def _sum(items) -> Node:
+    items = list(items)
+    out = items[0]
+    for x in items[1:]:
+        out = out + x
+    return out
+
+
+def _product(items) -> Node:
+    out = items[0]
+    for x in items[1:]:
+        out = out * x
+    return out
+
+
+def _cases(kind: str, args: tuple[Node, ...]) -> list[tuple[Node, Node]]:
+    """(guard, value) pairs, exhaustive and exclusive, for abs(a), min(a, b), max(a, b)."""
+    if kind == "abs":
+        (a,) = args
+        return [(a >= 0, a), (a < 0, -a)]
+    a, b = args
+    if kind == "min":
+        return [(a <= b, a), (a > b, b)]
+    return [(a >= b, a), (a < b, b)]
+
+

@@ -1,0 +1,337 @@
+"""Read KeYmaera X archives (.kyx) into certiloop `Theorem`s.
+
+An entry's `Problem` is a dL formula; it becomes `assumptions -> [program] guarantee` by
+peeling what is equivalent: `A -> B` moves A into the assumptions, `[a][b]P` is `[a;b]P`,
+`[a](Q -> P)` is `[a;?Q]P` and `Q | [a]P` is `!Q -> [a]P`. Whatever is left (a diamond, an
+equivalence, a quantifier) stays in the guarantee, behind the program `?true`.
+
+Language the engine does not have is translated exactly or refused with line and column:
+  * definitions (functions, predicates, programs) are expanded where they are used;
+  * `abs`, `min`, `max` are split into cases at the comparison (or assignment) using them;
+  * a differential symbol `x'` is an ordinary variable that an ODE sets to its right-hand
+    side at the end of the flow (dL's semantics); inside the ODE's own domain and
+    annotations it is replaced by that right-hand side, which it equals along the flow;
+  * `(e)'` is the total differential of e (sum of ∂e/∂x · x'; constants have none);
+  * `old(e)` in an ODE's annotation is a fresh variable assigned e just before the ODE.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from lark import Token, Tree
+
+from certiloop.models.kyx.expressions import Builder
+from certiloop.models.kyx.syntax import (
+    KyxError,
+    Scope,
+    _declarations,
+    _where,
+    parse_tree,
+)
+from certiloop.models.lang.programs import (
+    ODE,
+    Assign,
+    Havoc,
+    Loop,
+    Program,
+    Seq,
+    Test,
+    assign,
+    children,
+    seq,
+    skip,
+    test,
+    written,
+)
+from certiloop.models.lang.terms import (
+    BOOL,
+    MODALITIES,
+    TRUE,
+    And,
+    ModelError,
+    Node,
+    Not,
+    Or,
+    Real,
+    Var,
+    free_vars,
+)
+from certiloop.models.lang.theorem import Theorem
+
+METADATA = re.compile(r"/\*@certiloop (\{.*?\})\s*\*/", re.S)
+
+
+# --------------------------------------------------------------------------- problem -> Theorem
+
+
+def _with_ode_primes(p: Program, primes: dict[str, str]) -> Program:
+    """After every ODE, set the differential symbols in use to the right-hand sides (dL:
+    x' = f(x) holds in the final state of every run, also the run of duration 0)."""
+    if isinstance(p, ODE):
+        sets = [assign(Real(primes[v.payload]), f) for v, f in p.eqs if v.payload in primes]
+        return seq(p, *sets) if sets else p
+    if isinstance(p, Seq):
+        return seq(*(_with_ode_primes(q, primes) for q in p.parts))
+    if isinstance(p, Loop):
+        return Loop(_with_ode_primes(p.body, primes), p.invariant, p.label, p.each, p.count)
+    if hasattr(p, "alternatives"):
+        return type(p)(tuple(_with_ode_primes(q, primes) for q in p.alternatives), p.labels)
+    return p
+
+
+def _primes_in_formula(f: Node, primes: dict[str, str]) -> Node:
+    if f.op in MODALITIES:
+        inner = _primes_in_formula(f.args[0], primes)
+        return Node(f.op, (inner,), f.sort, _with_ode_primes(f.payload, primes))
+    if not f.args:
+        return f
+    return Node(f.op, tuple(_primes_in_formula(a, primes) for a in f.args), f.sort, f.payload)
+
+
+def _has_loop(p: Program) -> bool:
+    return isinstance(p, Loop) or any(_has_loop(q) for q in children(p))
+
+
+def _nested_loop(f: Node) -> bool:
+    if f.op in MODALITIES and _has_loop(f.payload):
+        return True
+    if f.op in MODALITIES:
+        return _nested_loop(f.args[0])
+    return any(_nested_loop(a) for a in f.args)
+
+
+def split_problem(f: Node, exact: bool = False) -> tuple[Node, Program, Node]:
+    """`A -> [a](Q -> [b]P)` as (A, a; ?Q; b, P), and `Q | [a]P` as `!Q -> [a]P`: each step an
+    equivalence. exact: just `A -> [a]P` (how certiloop writes a theorem, so it reads back as
+    the same one)."""
+    if exact:
+        assumptions, rest = (f.args[0], f.args[1]) if f.op == "implies" else (TRUE, f)
+        if rest.op == "box":
+            return assumptions, rest.payload, rest.args[0]
+        return assumptions, skip(), rest
+    assumptions: list[Node] = []
+    parts: list[Program] = []
+    while True:
+        if f.op == "implies" and not parts:
+            assumptions.append(f.args[0])
+            f = f.args[1]
+        elif f.op == "implies" and parts and f.args[0].op not in MODALITIES and not _modal(f.args[0]):
+            parts.append(test(f.args[0]))
+            f = f.args[1]
+        elif f.op == "box":
+            parts.append(f.payload)
+            f = f.args[0]
+        elif f.op == "or" and _one_box_among_first_order(f.args):
+            # Q | [a]P is !Q -> [a]P: a loop in [a] then becomes the theorem's own program
+            guard = Not(Or(*(d for d in f.args if d.op != "box")))
+            if parts:
+                parts.append(test(guard))
+            else:
+                assumptions.append(guard)
+            f = next(d for d in f.args if d.op == "box")
+        else:
+            break
+    return And(*assumptions), seq(*parts) if parts else skip(), f
+
+
+def _one_box_among_first_order(disjuncts: tuple[Node, ...]) -> bool:
+    boxes = [d for d in disjuncts if d.op == "box"]
+    return len(boxes) == 1 and not any(_modal(d) for d in disjuncts if d.op != "box")
+
+
+def _modal(f: Node) -> bool:
+    return f.op in MODALITIES or any(_modal(a) for a in f.args)
+
+
+@dataclass
+class Entry:
+    name: str
+    kind: str
+    theorem: Theorem | None
+    error: str | None  # why the entry cannot be used (not supported), with line and column
+
+
+def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> list[Entry]:
+    """Every entry of an archive, each a Theorem or the one-line reason it is not supported.
+    A syntax error in the file raises KyxError (no entry can be trusted then). With `only`,
+    just that entry is built; the others are listed by name (theorem and error None)."""
+    tree = parse_tree(text, source)
+    if tree.data in ("bare_entry", "bare_formula"):  # one problem, no ArchiveEntry: named by the file
+        name = Path(source).stem if source != "<kyx>" else "problem"
+        item = tree if tree.data == "bare_entry" else Tree("bare_entry", [Tree("problem", tree.children)])
+        if only is not None and name != only:
+            return [Entry(name, "Problem", None, None)]
+        try:
+            return [Entry(name, "Problem", _entry_theorem(item, name, Scope(source), text, source), None)]
+        except ModelError as exc:
+            why = str(exc) if isinstance(exc, KyxError) else f"{source}: {exc}"
+            return [Entry(name, "Problem", None, why)]
+    shared = Scope(source)
+    entries: list[Entry] = []
+    seen: set[str] = set()
+    for item in tree.children:
+        if item.data == "shared":
+            _declarations([item], shared)
+            continue
+        kind, *rest = item.children
+        name_tok = next(c for c in rest if isinstance(c, Token) and c.type == "STRING")
+        name = json.loads(str(name_tok)) if "\\" in str(name_tok) else str(name_tok)[1:-1]
+        if name in seen:
+            raise KyxError(f"{_where(source, name_tok)}: two entries named {name!r}")
+        seen.add(name)
+        if only is not None and name != only:
+            entries.append(Entry(name, str(kind), None, None))
+            continue
+        span = text[item.meta.start_pos:item.meta.end_pos]
+        try:
+            theorem = _entry_theorem(item, name, shared, span, source)
+            entries.append(Entry(name, str(kind), theorem, None))
+        except ModelError as exc:
+            message = str(exc)
+            if not isinstance(exc, KyxError):
+                message = f"{_where(source, name_tok)}: {message}"
+            entries.append(Entry(name, str(kind), None, message))
+    return entries
+
+
+def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str) -> Theorem:
+    scope = Scope(source, dict(shared.defs), list(shared.variables), set(shared.bools))
+    blocks = [c for c in item.children if isinstance(c, Tree) and c.data in ("definitions", "variables")]
+    _declarations(blocks, scope)
+    problem = next(c for c in item.children if isinstance(c, Tree) and c.data == "problem")
+    spelled = {str(tok) for tok in item.scan_values(lambda v: isinstance(v, Token) and v.type == "IDENT")}
+    builder = Builder(scope, {}, taken=spelled | set(shared.defs))
+    formula_tree = problem.children[0]
+    f = builder.expr(formula_tree, {})
+    if f.sort != BOOL:
+        raise KyxError(f"{_where(source, problem)}: the Problem is a term, not a formula")
+    if builder.primes:
+        f = _primes_in_formula(f, builder.primes)
+    meta = _metadata(span, source, problem)
+    if meta.get("names"):
+        f = _rename(f, meta["names"])
+    assumptions, program, guarantee = split_problem(f, exact=meta.get("shape") == "A->[a]P")
+    for part, what in ((assumptions, "an assumption"), (guarantee, "the guarantee")):
+        if _nested_loop(part):
+            raise KyxError(f"{_where(source, problem)}: a loop inside {what}'s modality is not "
+                           "supported (only the outermost [..] of the Problem may hold loops)")
+    names = meta.get("names", {})
+    constants = [Real(names.get(n, n)) for n, d in scope.defs.items()
+                 if d.kind == "constant" and n not in scope.bools]
+    writes = written(program)
+    for c in constants:
+        if c.payload in writes:
+            raise KyxError(f"{_where(source, problem)}: the program writes `{c.payload}`, declared "
+                           "constant in Definitions")
+    theorem = Theorem(
+        name=name,
+        assumptions=assumptions,
+        program=_relabel(program, meta.get("labels", [])),
+        guarantee=guarantee,
+        expected=meta.get("expected", "proved"),
+        constants=tuple(constants) + _guarantee_only(assumptions, program, guarantee, constants),
+        description=meta.get("description", _described(item)),
+        unroll=meta.get("unroll", 3),
+        check_nonblocking=meta.get("check_nonblocking", False),
+        abbreviations={k: _rename(_meta_term(v, scope, source), names)
+                       for k, v in meta.get("abbreviations", {}).items()},
+        scenarios=tuple(_rename(_meta_formula(s, scope, source), names) for s in meta.get("scenarios", [])),
+    )
+    return theorem
+
+
+def _described(item: Tree) -> str:
+    """The entry's `Description "..."`, shown by `certiloop list`."""
+    for m in item.children:
+        if isinstance(m, Tree) and m.data == "meta" and str(m.children[0]) == "Description":
+            text = str(m.children[1])
+            return json.loads(text) if "\\" in text else text[1:-1]
+    return ""
+
+
+def _guarantee_only(assumptions: Node, program: Program, guarantee: Node, constants) -> tuple[Node, ...]:
+    """Symbols only the guarantee mentions: declared, never written, so constants."""
+    known = set(free_vars(assumptions)) | set(program.symbols()) | {c.payload for c in constants}
+    return tuple(v for n, v in free_vars(guarantee).items() if n not in known and v.sort != BOOL)
+
+
+def _metadata(span: str, source: str, where) -> dict:
+    m = METADATA.search(span)
+    if m is None:
+        return {}
+    try:
+        data = json.loads(m.group(1))
+    except json.JSONDecodeError as exc:
+        raise KyxError(f"{_where(source, where)}: unreadable /*@certiloop ...*/ comment: {exc}") from None
+    return data if isinstance(data, dict) else {}
+
+
+def _meta_term(text: str, scope: Scope, source: str) -> Node:
+    tree = parse_tree(f'ArchiveEntry "m" Problem {text} = 0 End. End.', source)
+    f = Builder(scope, {}).expr(tree.children[0].children[-2].children[0], {})
+    return f.args[0]
+
+
+def _meta_formula(text: str, scope: Scope, source: str) -> Node:
+    tree = parse_tree(f'ArchiveEntry "m" Problem {text} End. End.', source)
+    return Builder(scope, {}).expr(tree.children[0].children[-2].children[0], {})
+
+
+def _rename(f: Node, names: dict[str, str]) -> Node:
+    """Rename symbols (KeYmaera X's spelling -> certiloop's) everywhere in a formula."""
+
+    def node(n: Node) -> Node:
+        if n.op == "var":
+            return Var(names.get(n.payload, n.payload), n.sort)
+        payload = n.payload
+        if n.op in ("forall", "exists"):
+            payload = tuple(node(v) for v in payload)
+        elif n.op in MODALITIES:
+            payload = program(payload)
+        return Node(n.op, tuple(node(a) for a in n.args), n.sort, payload)
+
+    def program(p: Program) -> Program:
+        if isinstance(p, Assign):
+            return Assign(node(p.target), node(p.value))
+        if isinstance(p, Havoc):
+            return Havoc(node(p.target))
+        if isinstance(p, Test):
+            return Test(node(p.cond))
+        if isinstance(p, Seq):
+            return Seq(tuple(program(q) for q in p.parts))
+        if isinstance(p, Loop):
+            inv = None if p.invariant is None else node(p.invariant)
+            return Loop(program(p.body), inv, p.label, p.each, p.count)
+        if isinstance(p, ODE):
+            return ODE(tuple((node(v), node(e)) for v, e in p.eqs), node(p.domain),
+                       tuple(node(i) for i in p.invariants))
+        return type(p)(tuple(program(q) for q in p.alternatives), p.labels)
+
+    return node(f)
+
+
+def _relabel(p: Program, labels: list) -> Program:
+    """Put back certiloop's branch and loop labels (pre-order), which .kyx has no syntax for."""
+    if not labels:
+        return p
+    queue = list(labels)
+
+    def walk(q: Program) -> Program:
+        if isinstance(q, Seq):
+            return Seq(tuple(walk(x) for x in q.parts))
+        if isinstance(q, Loop):
+            label = queue.pop(0) if queue else q.label
+            return Loop(walk(q.body), q.invariant, label, q.each, q.count)
+        if hasattr(q, "alternatives"):
+            names = tuple(queue.pop(0) if queue else lab for lab in q.labels)
+            return type(q)(tuple(walk(x) for x in q.alternatives), names)
+        return q
+
+    return walk(p)
+
+
+__all__ = ["Entry", "KyxError", "read_entries", "split_problem"]
