@@ -26,7 +26,17 @@ import numpy as np
 from certiloop.falsify.choosers import REAL_RANGE
 from certiloop.falsify.interpreter import HORIZON, LOOP_BOUND, OPEN_LOOP_ITERATIONS, _outer_loop
 from certiloop.falsify.vectorise import Unsupported, VCompiler, conjuncts, read_order
-from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, program_symbols
+from certiloop.models.lang.programs import (
+    ODE,
+    Assign,
+    Choice,
+    Havoc,
+    Loop,
+    Program,
+    Seq,
+    Test,
+    program_symbols,
+)
 from certiloop.models.lang.terms import REAL, Node, free_vars
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.wp import flow_solution
@@ -81,6 +91,8 @@ class Batch:
     violated: np.ndarray  # the guarantee failed at a checkpoint
     worst: np.ndarray  # the guarantee's margin where it failed (nan elsewhere)
     events: list[tuple[str, np.ndarray, np.ndarray]] = field(default_factory=list)
+    final: dict[str, np.ndarray] = field(default_factory=dict)  # each run's last state (nan: open)
+    completed: np.ndarray | None = None  # ran to its end or to a violation (did not block)
 
     def initial_state(self, r: int) -> dict[str, float]:
         return {name: float(self.initial[name][r]) for name in self.symbols}
@@ -264,6 +276,7 @@ class BatchProgram:
     def simulate(self, rng: np.random.Generator, n: int) -> Batch:
         self.rng, self.n = rng, n
         self.events: list[tuple[str, np.ndarray, np.ndarray]] = []
+        self.dropped = np.zeros(n, bool)  # a value went non-finite or RK4 lost it: abandoned
         with np.errstate(all="ignore"):  # 1/0 and overflow: such runs are dropped
             S, accepted = self._initial()
             batch = Batch(n, self.given, {k: S.vals[k].copy() for k in self.given}, accepted,
@@ -274,7 +287,10 @@ class BatchProgram:
                 ok = self._exec(p, S, accepted)
                 self._checkpoint(S, ok)
             else:
-                self._exec(p, S, accepted)
+                ok = self._exec(p, S, accepted)
+            batch.completed = (ok | batch.violated) & ~self.dropped  # others blocked before the loop
+            batch.violated &= ~self.dropped
+        batch.final = {k: np.where(S.open[k], np.nan, v) for k, v in S.vals.items()}
         return batch
 
     def _log(self, kind: str, rows: np.ndarray, values: np.ndarray) -> None:
@@ -424,7 +440,8 @@ class BatchProgram:
         if isinstance(p, Assign):
             self._resolve(p.value, S, rows, None)
             x = np.broadcast_to(self.vc(p.value)(S.vals), (self.n,))
-            ok = rows & np.isfinite(x)
+            self.dropped |= rows & ~np.isfinite(x)
+            ok = rows & ~self.dropped
             S.set(p.target.payload, ok, x)
             return ok
         if isinstance(p, Havoc):
@@ -470,7 +487,7 @@ class BatchProgram:
                 if try_a.any():
                     ok = self._attempt(p.alternatives[a], S, try_a)
                     done |= ok
-                    pending &= ~ok
+                    pending &= ~ok & ~self.dropped
         return done
 
     def _loop(self, p: Loop, S: State, rows: np.ndarray, exit_test: Node | None) -> np.ndarray:
@@ -489,7 +506,7 @@ class BatchProgram:
             if not active.any():
                 return out
             ok = self._attempt(p.body, S, active)
-            out |= active & ~ok  # a blocked iteration ends the loop, as in the interpreter
+            out |= active & ~ok & ~self.dropped  # a blocked iteration ends the loop, as in the interpreter
             active &= ok
         return out  # runs still looping after LOOP_BOUND iterations block
 
@@ -510,7 +527,7 @@ class BatchProgram:
             ok = self._attempt(p.body, S, act)
             alive &= ~(act & ~ok)  # no further step possible: the run ends there
             alive &= ~self._checkpoint(S, ok)
-        return alive
+        return rows  # every run ends well here: a blocked step ends it, a violation is marked
 
     def _checkpoint(self, S: State, rows: np.ndarray) -> np.ndarray:
         """Mark the rows where the guarantee fails; they end there."""
@@ -562,6 +579,7 @@ class BatchProgram:
         duration = np.zeros(self.n)
         duration[at] = end
         ok[at[~good]] = False
+        self.dropped[at[~good]] = True
         self._log("duration", ok, duration)
         for name, v in after.items():
             S.vals[name][at[good]] = v[good]
