@@ -185,11 +185,15 @@ class _Flow:
         out = np.full(n, np.nan)
         pending = np.ones(n, bool)
         g0 = self._margin_at(S, np.zeros(n))
-        grid = GRID if self.solution is not None else RK4_GRID
+        closed = self.solution is not None
+        if not closed:  # scipy's event detection ends a flow where the domain's margin reaches 0
+            out[g0 <= 0] = 0.0
+            pending &= ~(g0 <= 0)
+        grid = GRID if closed else RK4_GRID
         for level in range(depth + 1):
             ts = hi[:, None] * grid[None, 1:]
             g = self._margin_at(S, ts)
-            neg = g < 0
+            neg = g < 0 if closed else g <= 0
             hit = neg.any(axis=1)
             k = neg.argmax(axis=1)
             out[pending & ~hit] = hi[pending & ~hit]

@@ -27,7 +27,7 @@ from certiloop.falsify.vectorise import Unsupported, conjuncts, read_order
 from certiloop.models.lang.theorem import Theorem
 
 BATCH_SIZE = 4096  # a batch's cost is mostly per statement, not per run: large batches
-CONFIRMS_PER_BATCH = 4  # candidates replayed per batch (deepest first)
+CONFIRMS_PER_BATCH = 16  # candidates replayed per batch (deepest first)
 SNAP = 1e-9  # relative: how far rounding may have moved a value an equation pins down
 MAX_CONFIRMS = 32  # replays in all: float-only near misses of a safe model stay cheap
 
