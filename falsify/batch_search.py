@@ -27,6 +27,7 @@ from certiloop.falsify.vectorise import Unsupported, conjuncts, read_order
 from certiloop.models.lang.theorem import Theorem
 
 BATCH_SIZE = 4096  # a batch's cost is mostly per statement, not per run: large batches
+FIRST_BATCH = 256  # ... but an easy counterexample needs no 4,096 runs: 256, 1,024, 4,096, ...
 CONFIRMS_PER_BATCH = 16  # candidates replayed per batch (deepest first)
 SNAP = 1e-9  # relative: how far rounding may have moved a value an equation pins down
 MAX_CONFIRMS = 32  # replays in all: float-only near misses of a safe model stay cheap
@@ -51,8 +52,9 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
         return BatchOutcome(0, 0, unsupported=str(exc))
     rng = np.random.default_rng(seed)
     drawn = started = confirms = 0
+    size = FIRST_BATCH
     while drawn < runs:
-        size = min(BATCH_SIZE, runs - drawn)
+        size = min(size, runs - drawn)
         batch = program.simulate(rng, size)
         started += int(batch.accepted.sum())
         for r in batch.candidates()[:CONFIRMS_PER_BATCH]:
@@ -64,6 +66,7 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
             if check:
                 return BatchOutcome(drawn + r + 1, started, run, check, initial, script)
         drawn += size
+        size = min(4 * size, BATCH_SIZE)
     return BatchOutcome(drawn, started)
 
 
