@@ -11,8 +11,10 @@ the first confirmed counterexample, and `certiloop falsify` on every refuted mod
   hypothesis in the new install too; its new figure is then the hypothesis rate.
 * time to first counterexample: `falsify` (shrinking off) of each refuted model for
   seeds 0..N-1 in each install: seeds that found one, median seconds.
-* CLI: `certiloop falsify MODEL --database none` (the gate's budget, shrinking on) once per
+* CLI: `certiloop falsify MODEL --database none` (the CLI's budget, shrinking on) once per
   refuted model and install: exit code and seconds.
+* ab: in the new install alone, the gate's falsifier (300 examples) per model with the batch
+  phase off and on: its cost on safe models, its gain on unsafe ones, the same verdicts.
 
 Each measurement runs in a fresh process of the install's own Python, old and new
 interleaved per model. Results: benchmarks/results/batch.json.
@@ -100,7 +102,7 @@ def main() -> None:
     ap.add_argument("--old-python", required=True, help="the old install's python")
     ap.add_argument("--new-python", default=sys.executable)
     ap.add_argument("--seeds", type=int, default=5)
-    ap.add_argument("--only", choices=["rate", "first", "cli"], nargs="*")
+    ap.add_argument("--only", choices=["rate", "first", "cli", "ab"], nargs="*")
     ap.add_argument("--models", nargs="*")
     args = ap.parse_args()
     old_cli = str(Path(args.old_python).with_name("certiloop"))
@@ -113,7 +115,9 @@ def main() -> None:
     rate_models = args.models or (["sbs.ctrl2", "sbs.ctrl1"]
                                   + [n for n in library.names() if n.startswith("textbook.")]
                                   + [n for n in refuted if not n.startswith("textbook.")])
-    todo = args.only or ["rate", "first", "cli"]
+    todo = args.only or ["rate", "first", "cli", "ab"]
+    if "ab" in todo:
+        record("batch_ab", _ab(args.models or library.names()))
     if "rate" in todo:
         rows = []
         for name in rate_models:
@@ -149,6 +153,27 @@ def main() -> None:
             rows.append({"model": name, "old_exit": oc, "new_exit": nc, "old_s": round(os_, 2),
                          "new_s": round(ns, 2), "ratio": round(os_ / ns, 1)})
         record("batch_cli", rows)
+
+
+def _ab(names: list[str]) -> list[dict]:
+    """The gate's falsifier (300 examples, shrinking off, seed 0) in this install, with and
+    without the batch phase, in one process: what the batch phase adds to or saves from it."""
+    from certiloop.falsify.search import Options, falsify
+    from certiloop.models import library
+
+    rows = []
+    for name in names:
+        theorem = library.get(name)
+        got = {}
+        for runs in (0, 4096):
+            start = time.perf_counter()
+            found = falsify(theorem, Options(max_examples=300, seed=0, database=None, shrink=False,
+                                             batch_runs=runs))
+            got[runs] = (time.perf_counter() - start, found)
+        rows.append({"model": name, "hypothesis_s": round(got[0][0], 2),
+                     "batch_then_hyp_s": round(got[4096][0], 2),
+                     "found": f"{got[0][1].found}/{got[4096][1].found}", "phase": got[4096][1].phase})
+    return rows
 
 
 def _round(x):
