@@ -1,5 +1,9 @@
 """Hypothesis-driven search for a run that violates a theorem's guarantee.
 
+A model the batch simulator compiles (the scalar real fragment) is first run in vectorised
+batches seeded by the search's seed (`batch_search`): thousands of runs per second, a hit
+reported only after the interpreter replayed it. Hypothesis then searches as before.
+
 Every example is one run of the interpreter whose decisions (initial values, family size,
 alternatives, open values, ODE durations, number of control steps) hypothesis draws. The
 search steers towards small guarantee margins (`hypothesis.target`), shrinks a violating
@@ -42,6 +46,7 @@ class Options:
     max_steps: int = 3
     database: Path | None = DEFAULT_DATABASE
     shrink: bool = True  # False: report the first violating run as found (benchmarks)
+    batch_runs: int = 4096  # runs of the vectorised batch phase before hypothesis (0: none)
 
     def digest(self) -> str:
         return f"{self.families}/{self.max_steps}"
@@ -57,6 +62,8 @@ class Falsification:
     check: str = ""  # how the violation was re-checked
     script: list[tuple[str, Any]] = field(default_factory=list)
     note: str = ""  # why the search could not run, e.g. no start state meets the assumptions
+    phase: str = "hypothesis"  # which search found the run: "batch" or "hypothesis"
+    initial: dict[str, Any] | None = None  # a batch run's initial state (its script starts after it)
 
     @property
     def verdict(self) -> str:
@@ -65,7 +72,7 @@ class Falsification:
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"model": self.model, "verdict": self.verdict, "examples": self.examples,
                                "seconds": round(self.seconds, 4), "counterexample": None,
-                               "note": self.note}
+                               "note": self.note, "phase": self.phase}
         if self.run is not None:
             out["counterexample"] = {"trace": [c.to_json() for c in self.run.checkpoints],
                                      "violated": self.run.violated, "check": self.check,
@@ -87,9 +94,18 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     from hypothesis.errors import Unsatisfiable
 
     opts = options or Options()
+    start = time.perf_counter()
+    batched = 0
+    if opts.batch_runs > 0:  # many seeded runs at once; a hit is reported only once replayed
+        from certiloop.falsify.batch_search import batch_search
+
+        outcome = batch_search(theorem, opts.batch_runs, opts.seed, opts.max_steps, opts.families)
+        if outcome.run is not None:
+            return Falsification(theorem.name, True, outcome.runs, time.perf_counter() - start, outcome.run,
+                                 outcome.check, outcome.script or [], phase="batch", initial=outcome.initial)
+        batched = outcome.runs
     interp = Interpreter(theorem, max_steps=opts.max_steps, families=opts.families)
     count = {"examples": 0, "first": 0}
-    start = time.perf_counter()
 
     def one_run(data) -> None:
         count["examples"] += 1
@@ -125,14 +141,14 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
             test()
     except _Found as found:
         check = found.check if found.check != "deep" else confirm(theorem, found.script, found.run, opts)
-        return Falsification(theorem.name, True, count["first"], time.perf_counter() - start,
+        return Falsification(theorem.name, True, batched + count["first"], time.perf_counter() - start,
                              found.run, check, found.script)
     except Unsatisfiable:  # every draw was rejected: nothing was run, which is not a pass
         return Falsification(theorem.name, False, 0, time.perf_counter() - start,
                              note=f"no run could be started in {count['examples']} tries: every drawn "
                              "start state missed the assumptions or blocked at once (are the "
                              "assumptions satisfiable?)")
-    return Falsification(theorem.name, False, count["examples"], time.perf_counter() - start)
+    return Falsification(theorem.name, False, batched + count["examples"], time.perf_counter() - start)
 
 
 @contextmanager
