@@ -7,7 +7,7 @@ from typing import Callable
 
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
-from certiloop.models.library import cfmpa, raven, rcm, sbs, textbook
+from certiloop.models.library import cfmpa, cfmpa_geometry, raven, rcm, sbs, textbook
 
 _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl1": sbs.ctrl1,
@@ -24,6 +24,16 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl2_dynamic_join_anywhere": sbs.ctrl2_dynamic_join_anywhere,
     "cfmpa.builtdr": cfmpa.builtdr,
     "cfmpa.builtdr_skips_last_row": cfmpa.builtdr_skips_last_row,
+    "cfmpa.builtdr_inclusive": cfmpa.builtdr_inclusive,
+    "cfmpa.property8": cfmpa.property8,
+    "cfmpa.property8_converse": cfmpa.property8_converse,
+    "cfmpa.segment_printed": cfmpa_geometry.segment_printed,
+    "cfmpa.halfspace_convex": cfmpa_geometry.halfspace_convex,
+    "cfmpa.hull_in_halfplane": cfmpa_geometry.hull_in_halfplane,
+    "cfmpa.sat_separates": cfmpa_geometry.sat_separates,
+    "cfmpa.arc_in_chord_hull": cfmpa_geometry.arc_in_chord_hull,
+    "cfmpa.arc_in_triangle": cfmpa_geometry.arc_in_triangle,
+    "cfmpa.joint_box_monotone": cfmpa_geometry.joint_box_monotone,
     "textbook.bouncing_ball": textbook.bouncing_ball,
     "textbook.bouncing_ball_superelastic": textbook.bouncing_ball_superelastic,
     "textbook.train": textbook.train,
