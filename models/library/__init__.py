@@ -7,7 +7,7 @@ from typing import Callable
 
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
-from certiloop.models.library import cfmpa, cfmpa_geometry, raven, rcm, sbs, textbook
+from certiloop.models.library import cfmpa, cfmpa_geometry, cfmpa_paths, raven, rcm, sbs, textbook
 
 _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl1": sbs.ctrl1,
@@ -34,6 +34,13 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "cfmpa.arc_in_chord_hull": cfmpa_geometry.arc_in_chord_hull,
     "cfmpa.arc_in_triangle": cfmpa_geometry.arc_in_triangle,
     "cfmpa.joint_box_monotone": cfmpa_geometry.joint_box_monotone,
+    "cfmpa.property3_printed": cfmpa_paths.property3_printed,
+    "cfmpa.property3": cfmpa_paths.property3,
+    "cfmpa.property4": cfmpa_paths.property4,
+    "cfmpa.property5_unguarded": cfmpa_paths.property5_unguarded,
+    "cfmpa.searchoptpath": cfmpa_paths.searchoptpath,
+    "cfmpa.early_arrival": cfmpa_paths.early_arrival,
+    "cfmpa.check_path": cfmpa_paths.check_path,
     "textbook.bouncing_ball": textbook.bouncing_ball,
     "textbook.bouncing_ball_superelastic": textbook.bouncing_ball_superelastic,
     "textbook.train": textbook.train,
