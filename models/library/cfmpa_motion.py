@@ -33,7 +33,20 @@ readings of §IV.A's undefined f (D11) are separate one-step models below.
 
 from __future__ import annotations
 
-from certiloop.models.lang.programs import assign, assign_min, havoc, if_, loop, seq, skip, test
+from fractions import Fraction
+
+from certiloop.models.lang.programs import (
+    assign,
+    assign_min,
+    branch,
+    choice,
+    havoc,
+    if_,
+    loop,
+    seq,
+    skip,
+    test,
+)
 from certiloop.models.lang.terms import BOOL, INT, And, Array, Implies, Int, Ints, Not, Or, Real, Reals
 from certiloop.models.lang.theorem import Theorem
 
@@ -75,9 +88,29 @@ def _schedule():
     return out
 
 
+def _speed(a, hints: bool, allowed):
+    """v_a := the principal's speed for this step. With hints, full speed, standing still and
+    reaching the goal within the step are listed apart (they add no run: the test after them
+    is the same) so that the falsifier tries them, not only random draws that rarely pass the
+    test; the proofs of the safe designs go without (each alternative multiplies the cases)."""
+    if not hints:
+        return seq(havoc(v[a]), test(allowed))
+    return choice(branch(f"joint {a} at full speed", assign(v[a], sg[a] * w[a]), test(allowed)),
+                  branch(f"joint {a} reaches its goal", assign(v[a], (G[a] - th[a]) / dt), test(allowed)),
+                  branch(f"joint {a} still", assign(v[a], 0), test(allowed)),
+                  branch(f"joint {a} any speed", havoc(v[a]), test(allowed)))
+
+
+def _one_joint_moves(distance):
+    """A narrow setting for the mutants: Δt = ω = 1, joint 1 turns by `distance` from 0, joint 2
+    stays put (σ2 = -1 as the paper's rule gives for θG = θS), so T_f = distance."""
+    return And(dt == 1, Tf == distance, w[1] == 1, w[2] == 1, sg[1] == 1, S[1] == 0, G[1] == distance,
+               sg[2] == -1, S[2] == 0, G[2] == 0)
+
+
 def _execution(name: str, expected: str, description: str, *, region: str = "modified",
                wrong_direction: bool = False, floor_layers: bool = False, floor_grid: bool = False,
-               early: bool = False, docstring: str = "") -> Theorem:
+               early: bool = False, narrow=None) -> Theorem:
     """The plan executed step by step; see the module docstring. region: which box the
     guarantee checks ("modified", "original", "backward" for the inconsistency, "pose")."""
     layer_count = And(N * dt >= Tf, (N - 1) * dt < Tf)
@@ -85,18 +118,30 @@ def _execution(name: str, expected: str, description: str, *, region: str = "mod
         layer_count = And(N * dt <= Tf, Tf < (N + 1) * dt)
     grid = h <= wr * dt if not floor_grid else And(wr * dt < h, h <= 2 * wr * dt)
     length = ln >= N if not early else And(ln >= 1, ln < N)
-    start = [k == 0, seen == 0, *(th[a] == S[a] for a in JOINTS), *(bl[a] == S[a] for a in JOINTS)]
-    assumptions = And(*_schedule(), layer_count, grid, length, *start)
+    start = seq(assign(k, 0), assign(seen, 0), *(assign(th[a], S[a]) for a in JOINTS),
+                *(assign(bl[a], S[a]) for a in JOINTS))
+    # narrow: a mutant is refuted already in this smaller set of starts (a stronger refutation;
+    # it keeps the falsifier's search small)
+    extra = [narrow] if narrow is not None else []
+    assumptions = And(*_schedule(), layer_count, grid, length, *extra)
 
     remaining = {a: sg[a] * (G[a] - th[a] - v[a] * dt) for a in JOINTS}
     on_schedule = {a: Or(remaining[a] <= 0, remaining[a] <= w[a] * (Tf - (k + 1) * dt)) for a in JOINTS}
-    principal = seq(*(seq(havoc(v[a]), test(And(sg[a] * v[a] >= 0, sg[a] * v[a] <= w[a], remaining[a] >= 0,
-                                                on_schedule[a])))
+    hints = expected == "refuted"  # same runs; only the mutants need the falsifier to find one
+    principal = seq(*(_speed(a, hints, And(sg[a] * v[a] >= 0, sg[a] * v[a] <= w[a], remaining[a] >= 0,
+                                           on_schedule[a]))
                       for a in JOINTS))
     park = Implies(k + 1 >= ln, And(ni == ci, nj == cj))
-    subordinate = seq(havoc(ni), havoc(nj),
-                      test(And(ni - ci <= 1, ci - ni <= 1, nj - cj <= 1, cj - nj <= 1, park)))
-    observe = seq(havoc(lam), test(And(0 <= lam, lam <= 1)),
+    king = test(And(ni - ci <= 1, ci - ni <= 1, nj - cj <= 1, cj - nj <= 1, park))
+    subordinate = seq(havoc(ni), havoc(nj), king)
+    if hints:
+        subordinate = choice(branch("subordinate waits", assign(ni, ci), assign(nj, cj), king),
+                             branch("subordinate steps in i", assign(ni, ci + 1), assign(nj, cj), king),
+                             branch("subordinate moves", subordinate))
+    instant = seq(havoc(lam), test(And(0 <= lam, lam <= 1)))
+    if hints:
+        instant = choice(branch("end of the step", assign(lam, 1)), branch("any instant", instant))
+    observe = seq(instant,
                   *(assign(p[a], th[a] + v[a] * lam * dt) for a in JOINTS),
                   *(assign(r[a], h * CELL[a] + h * (NEXT[a] - CELL[a]) * lam) for a in JOINTS),
                   *(assign(bo[a], bl[a]) for a in JOINTS),
@@ -136,7 +181,7 @@ def _execution(name: str, expected: str, description: str, *, region: str = "mod
     return Theorem(
         name=name,
         assumptions=assumptions,
-        program=loop(step, invariant=invariant, label="plan step"),
+        program=seq(start, loop(step, invariant=invariant, label="plan step")),
         guarantee=guarantee,
         expected=expected,
         constants=(dt, Tf, wr, h, N, ln, *S.values(), *G.values(), *sg.values(), *w.values()),
@@ -182,21 +227,23 @@ def execution_layers_floor() -> Theorem:
     moving, and it leaves that layer's box."""
     return _execution("cfmpa.execution_layers_floor", "refuted",
                       "N rounded down: the last layer is reused while the principal still moves",
-                      floor_layers=True)
+                      floor_layers=True, narrow=And(N == 1, _one_joint_moves(Fraction(3, 2))))
 
 
 def execution_grid_floor() -> Theorem:
     """m = ⌊2π/(ωRΔt)⌋ (D4): the grid step exceeds ωRΔt and a move to the next cell leaves the
     subordinate's box around its cell."""
     return _execution("cfmpa.execution_grid_floor", "refuted",
-                      "grid rounded down (h > ωRΔt): a king move leaves the cell's box", floor_grid=True)
+                      "grid rounded down (h > ωRΔt): a king move leaves the cell's box", floor_grid=True,
+                      narrow=And(dt == 1, wr == 1, h == Fraction(3, 2)))
 
 
 def execution_early_arrival() -> Theorem:
     """D6: a path shorter than N reaches the goal while the principal still moves; the parked
     subordinate is never checked against layers len .. N-1."""
     return _execution("cfmpa.execution_early_arrival", "refuted",
-                      "path shorter than N: the parked goal cell is unchecked in later layers", early=True)
+                      "path shorter than N: the parked goal cell is unchecked in later layers", early=True,
+                      narrow=And(N == 2, ln == 1, _one_joint_moves(2)))
 
 
 def execution_pose_only() -> Theorem:
