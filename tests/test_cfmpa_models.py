@@ -122,11 +122,32 @@ def test_looped_verdict_is_the_expected_one(looped, name):
         assert result.run is not None and result.run.replayed, result.reason
 
 
+def _array(text: str):
+    """A refutation's array value `[k: v; ...; else: d]` as a lookup function."""
+    entries, default = {}, None
+    for part in text.strip("[]").split(";"):
+        key, value = (x.strip() for x in part.split(":"))
+        if key == "else":
+            default = int(value)
+        else:
+            entries[int(key)] = int(value)
+    return lambda i: entries.get(i, default)
+
+
 @pytest.mark.slow
 def test_printed_property3_leaves_a_blocked_cell_unchecked(looped):
-    """The run's path element kk < N lies in the grid with P = 1, and the printed Def 4 held."""
+    """The run: a path whose element kk is a grid cell with P != 0 (blocked), which the printed
+    Def 4 never checked because the next element is off the grid (or past the list's end)."""
     ref = looped["cfmpa.property3_printed"].refutation
-    assert ref is not None and ref.trace
+    state = {**ref.initial, **ref.trace[-1].state}
+    Li, Lj, P = _array(state["Li"]), _array(state["Lj"]), state["P"]
+    kk, m, n = int(state["kk"]), int(state["m"]), int(state["n"])
+    assert 0 <= Li(kk) < m and 0 <= Lj(kk) < n
+    assert not (0 <= Li(kk + 1) < m and 0 <= Lj(kk + 1) < n)
+    if P.count("[") == 1 and ";" not in P:  # a constant array `[else: d]`: the cell holds d
+        assert _array(P)(0) != 0
+    else:  # nested stores: at least the default is not 0 (the replay checked the cell itself)
+        assert "else: 0]" not in P
 
 
 @pytest.mark.slow
