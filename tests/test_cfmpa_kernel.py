@@ -235,3 +235,60 @@ def test_kernel_imports_numpy_only():
             "print([m for m in heavy if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+# --------------------------------------------------------------------------- checker vs the model
+
+
+def _interpret_check_path(P, path, start, goal) -> bool:
+    """ok after running the proved model `cfmpa.check_path` in the interpreter on this input."""
+    from certiloop.falsify.choosers import FirstEnabled
+    from certiloop.falsify.evaluate import Table
+    from certiloop.falsify.interpreter import Interpreter
+    from certiloop.models import library
+
+    N, m, n = P.shape
+    cells = {(k, i, j): int(P[k, i, j]) for k in range(N) for i in range(m) for j in range(n)}
+    state = {"N": N, "m": m, "n": n, "ln": len(path), "si": start[0], "sj": start[1], "gi": goal[0],
+             "gj": goal[1], "P": Table(cells, default=1),
+             "Li": Table({(k,): c[0] for k, c in enumerate(path)}, default=-1),
+             "Lj": Table({(k,): c[1] for k, c in enumerate(path)}, default=-1)}
+    run = Interpreter(library.get("cfmpa.check_path"), exact=True).run(FirstEnabled(), initial=state)
+    return int(run.final["ok"]) == 1
+
+
+@settings(max_examples=200)
+@given(st.integers(1, 3), st.integers(1, 3), st.integers(1, 3), st.floats(0, 0.5), st.integers(0, 2**32 - 1),
+       st.integers(1, 6))
+def test_checker_agrees_with_the_proved_model(N, m, n, density, seed, length):
+    """The kernel's checker and the interpreter running `cfmpa.check_path` (proved: ok = 1 iff
+    the list is a repaired-Def-4 path with len >= N) agree on random databases and lists,
+    including off-grid elements, jumps, and lists shorter than N."""
+    rng = np.random.default_rng(seed)
+    P = (rng.uniform(size=(N, m, n)) < density).astype(np.uint8)
+    path = [(int(rng.integers(-1, m + 1)), int(rng.integers(-1, n + 1)))]
+    for _ in range(length - 1):  # mostly king moves, sometimes a jump
+        i, j = path[-1]
+        step = rng.integers(-1, 2, size=2) * (3 if rng.uniform() < 0.1 else 1)
+        path.append((int(i + step[0]), int(j + step[1])))
+    start, goal = path[0], path[-1]
+    if rng.uniform() < 0.2:
+        goal = (int(rng.integers(m)), int(rng.integers(n)))
+    assert check_path(P, path, start, goal)[0] == _interpret_check_path(P, path, start, goal)
+
+
+def test_every_plan_passes_the_proved_model():
+    """Every plan the planner returns on random 3 x 3 x 3 databases is accepted by the
+    interpreter running `cfmpa.check_path`; moving its last element off the grid is not."""
+    rng = np.random.default_rng(0)
+    planned = 0
+    for _ in range(60):
+        P = (rng.uniform(size=(3, 3, 3)) < 0.3).astype(np.uint8)
+        start, goal = (int(rng.integers(3)), int(rng.integers(3))), (int(rng.integers(3)), int(rng.integers(3)))
+        got = plan(P, start, goal)
+        if got.ok:
+            planned += 1
+            assert _interpret_check_path(P, got.path, start, goal)
+            bad = [*got.path[:-1], (got.path[-1][0], -1)]
+            assert not _interpret_check_path(P, bad, start, goal)
+    assert planned >= 20
