@@ -284,7 +284,7 @@ def test_every_plan_passes_the_proved_model():
     planned = 0
     for _ in range(60):
         P = (rng.uniform(size=(3, 3, 3)) < 0.3).astype(np.uint8)
-        start, goal = (int(rng.integers(3)), int(rng.integers(3))), (int(rng.integers(3)), int(rng.integers(3)))
+        start, goal = [(int(rng.integers(3)), int(rng.integers(3))) for _ in range(2)]
         got = plan(P, start, goal)
         if got.ok:
             planned += 1
