@@ -46,7 +46,8 @@ def swept_ratio(scene) -> float:
     ratios = []
     boxes = {mode: scene.principal_boxes(mode) for mode in ("original", "modified")}
     for k in range(scene.layers):
-        static = unary_union([Polygon(x) for x in static_arm(scene.principal, scene.planned_pose(k * scene.dt))])
+        pose = scene.planned_pose(k * scene.dt)
+        static = unary_union([Polygon(x) for x in static_arm(scene.principal, pose)])
         area = {}
         for mode, b in boxes.items():
             links = arm_enclosures(scene.principal, b[k, 0], b[k, 1])
