@@ -7,7 +7,16 @@ from typing import Callable
 
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
-from certiloop.models.library import cfmpa, raven, rcm, sbs, textbook
+from certiloop.models.library import (
+    cfmpa,
+    cfmpa_geometry,
+    cfmpa_motion,
+    cfmpa_paths,
+    raven,
+    rcm,
+    sbs,
+    textbook,
+)
 
 _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl1": sbs.ctrl1,
@@ -24,6 +33,34 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "sbs.ctrl2_dynamic_join_anywhere": sbs.ctrl2_dynamic_join_anywhere,
     "cfmpa.builtdr": cfmpa.builtdr,
     "cfmpa.builtdr_skips_last_row": cfmpa.builtdr_skips_last_row,
+    "cfmpa.builtdr_inclusive": cfmpa.builtdr_inclusive,
+    "cfmpa.property8": cfmpa.property8,
+    "cfmpa.property8_converse": cfmpa.property8_converse,
+    "cfmpa.segment_printed": cfmpa_geometry.segment_printed,
+    "cfmpa.halfspace_convex": cfmpa_geometry.halfspace_convex,
+    "cfmpa.hull_in_halfplane": cfmpa_geometry.hull_in_halfplane,
+    "cfmpa.sat_separates": cfmpa_geometry.sat_separates,
+    "cfmpa.arc_in_chord_hull": cfmpa_geometry.arc_in_chord_hull,
+    "cfmpa.arc_in_triangle": cfmpa_geometry.arc_in_triangle,
+    "cfmpa.joint_box_monotone": cfmpa_geometry.joint_box_monotone,
+    "cfmpa.property3_printed": cfmpa_paths.property3_printed,
+    "cfmpa.property3": cfmpa_paths.property3,
+    "cfmpa.property4": cfmpa_paths.property4,
+    "cfmpa.property5_unguarded": cfmpa_paths.property5_unguarded,
+    "cfmpa.searchoptpath": cfmpa_paths.searchoptpath,
+    "cfmpa.early_arrival": cfmpa_paths.early_arrival,
+    "cfmpa.check_path": cfmpa_paths.check_path,
+    "cfmpa.execution": cfmpa_motion.execution,
+    "cfmpa.execution_original": cfmpa_motion.execution_original,
+    "cfmpa.original_backward_half_unreachable": cfmpa_motion.original_backward_half_unreachable,
+    "cfmpa.execution_wrong_direction": cfmpa_motion.execution_wrong_direction,
+    "cfmpa.execution_layers_floor": cfmpa_motion.execution_layers_floor,
+    "cfmpa.execution_grid_floor": cfmpa_motion.execution_grid_floor,
+    "cfmpa.execution_early_arrival": cfmpa_motion.execution_early_arrival,
+    "cfmpa.execution_pose_only": cfmpa_motion.execution_pose_only,
+    "cfmpa.execution_segment_original": cfmpa_motion.execution_segment_original,
+    "cfmpa.execution_segment_modified": cfmpa_motion.execution_segment_modified,
+    "cfmpa.segment_modified_full_speed": cfmpa_motion.segment_modified_full_speed,
     "textbook.bouncing_ball": textbook.bouncing_ball,
     "textbook.bouncing_ball_superelastic": textbook.bouncing_ball_superelastic,
     "textbook.train": textbook.train,

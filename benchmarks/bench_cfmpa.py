@@ -1,0 +1,142 @@
+"""Seed 002's qualitative claims and builtDR / planner timing on the dual-arm scenes.
+
+    python benchmarks/bench_cfmpa.py [--dt 0.2 0.1] [--queries 40] [--check]
+
+For each scene and Δt: builtDR for the original and the modified swept region (median of
+--repeats), the free fractions, seeded (start, goal) queries planned on both databases, and the
+swept-part ratio: the area the principal's enclosure adds to its static arm, modified over
+original (median over layers; shapely computes the areas here, never in the kernel).
+
+--check exits 0 only when the paper's three claims hold: the modified database frees at least
+as many cells everywhere and strictly more in R1; at least one query succeeds only with the
+modified region (its plan accepted by the checker); none succeeds only with the original.
+Writes benchmarks/results/cfmpa.json.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+from common import record
+
+from certiloop.kernel.dualarm import arm_enclosures, builtdr, reference_scene, static_arm
+from certiloop.kernel.dualarm_planner import check_path, plan
+
+SCENES = {
+    "R1": {},  # mixed directions: (0.25, 0.5) -> (0.7, -1.5)
+    "same": {"goal": (1.2, 1.5)},  # both joints turn the same way
+    "still": {"goal": (0.25, -1.5)},  # joint 1 stays put
+}
+
+
+def scene_for(name: str, dt: float):
+    return replace(reference_scene(dt), **SCENES[name])
+
+
+def swept_ratio(scene) -> float:
+    """Median over layers of area(enclosure - static arm), modified over original."""
+    from shapely.geometry import MultiPoint, Polygon
+    from shapely.ops import unary_union
+
+    ratios = []
+    boxes = {mode: scene.principal_boxes(mode) for mode in ("original", "modified")}
+    for k in range(scene.layers):
+        pose = scene.planned_pose(k * scene.dt)
+        static = unary_union([Polygon(x) for x in static_arm(scene.principal, pose)])
+        area = {}
+        for mode, b in boxes.items():
+            links = arm_enclosures(scene.principal, b[k, 0], b[k, 1])
+            region = unary_union([MultiPoint([tuple(p) for p in pts]).convex_hull for pts in links])
+            area[mode] = region.difference(static).area
+        ratios.append(area["modified"] / area["original"])
+    return statistics.median(ratios)
+
+
+def queries(P_mod, count: int, seed: int):
+    """Seeded (start, goal) pairs: start free in layer 0, goal free in layer N-1 (modified)."""
+    rng = np.random.default_rng(seed)
+    free0, free_last = np.argwhere(P_mod[0] == 0), np.argwhere(P_mod[-1] == 0)
+    if not len(free0) or not len(free_last):
+        return []
+    return [(tuple(int(v) for v in free0[rng.integers(len(free0))]),
+             tuple(int(v) for v in free_last[rng.integers(len(free_last))])) for _ in range(count)]
+
+
+def run(name: str, dt: float, repeats: int, count: int, seed: int) -> dict:
+    scene = scene_for(name, dt)
+    timings, db = {}, {}
+    for mode in ("original", "modified"):
+        times = []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            db[mode] = builtdr(scene, mode)
+            times.append(time.perf_counter() - t0)
+        timings[mode] = statistics.median(times)
+    ok = {"original": 0, "modified": 0}
+    only_mod = only_orig = 0
+    plan_times = []
+    for start, goal in queries(db["modified"], count, seed):
+        got = {}
+        for mode in ("original", "modified"):
+            t0 = time.perf_counter()
+            result = plan(db[mode], start, goal)
+            plan_times.append(time.perf_counter() - t0)
+            got[mode] = result.ok and check_path(db[mode], result.path, start, goal)[0]
+            ok[mode] += got[mode]
+        only_mod += got["modified"] and not got["original"]
+        only_orig += got["original"] and not got["modified"]
+    N, m, n = db["modified"].shape
+    return {"scene": name, "dt": dt, "N": N, "m": m, "cells": N * m * n,
+            "free_orig": float((db["original"] == 0).mean()), "free_mod": float((db["modified"] == 0).mean()),
+            "mod_le_orig": bool((db["modified"] <= db["original"]).all()),
+            "builtdr_orig_s": timings["original"], "builtdr_mod_s": timings["modified"],
+            "queries": count, "ok_orig": ok["original"], "ok_mod": ok["modified"],
+            "only_mod": int(only_mod), "only_orig": int(only_orig),
+            "plan_median_s": statistics.median(plan_times) if plan_times else 0.0,
+            "swept_ratio": swept_ratio(scene)}
+
+
+def check(rows: list[dict]) -> list[str]:
+    problems = []
+    for r in rows:
+        where = f"{r['scene']} at dt={r['dt']}"
+        if not r["mod_le_orig"] or r["free_mod"] < r["free_orig"]:
+            problems.append(f"{where}: the modified database is not cellwise below the original")
+        if r["scene"] == "R1" and not r["free_mod"] > r["free_orig"]:
+            problems.append(f"{where}: the modified database frees no more cells")
+        if r["only_orig"]:
+            problems.append(f"{where}: {r['only_orig']} queries succeed only with the original region")
+    if not any(r["only_mod"] for r in rows):
+        problems.append("no query succeeds only with the modified region")
+    return problems
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dt", type=float, nargs="+", default=[0.2, 0.1])
+    ap.add_argument("--scene", nargs="+", default=list(SCENES), choices=list(SCENES))
+    ap.add_argument("--queries", type=int, default=20)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--check", action="store_true", help="exit 1 unless the paper's claims hold")
+    args = ap.parse_args(argv)
+    if any(not 0 < dt < 1.5 for dt in args.dt):
+        ap.error("--dt must lie in (0, 1.5)")
+    rows = [run(s, dt, args.repeats, args.queries, args.seed) for s in args.scene for dt in args.dt]
+    record("cfmpa", rows)
+    if args.check:
+        problems = check(rows)
+        for p in problems:
+            print(f"CLAIM FAILS: {p}")
+        print("all three claims hold" if not problems else f"{len(problems)} claim(s) fail")
+        return 1 if problems else 0
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
