@@ -25,10 +25,21 @@ REFUSED = {
     "rcm.constraint_euler_4ms": "repeats any number of times",  # the plant's Euler map, no decision
     "rcm.barrier_clearance": "computes nothing",  # `?true`: an arithmetic fact, no step
     "raven.jump_detected": "2 plant ODEs",  # a fault (jump) between two flows
+    # seed 002 lemmas whose program only draws witnesses (no result) or repeats a motion step
+    "cfmpa.hull_in_halfplane": "repeats any number of times",  # hull points drawn in a loop
+    "cfmpa.sat_separates": "repeats any number of times",
+    "cfmpa.joint_box_monotone": "computes nothing",
+    "cfmpa.property3": "computes nothing",
+    "cfmpa.property4": "computes nothing",
+    "cfmpa.searchoptpath": "inside a choice",  # `Li := *` (the search's result) drawn in a choice
+    "cfmpa.execution": "a loop with no exit test",  # the execution of a plan, step after step
+    "cfmpa.execution_original": "a loop with no exit test",
+    "cfmpa.original_backward_half_unreachable": "a loop with no exit test",
 }
 EXTRACTS = [*dict.fromkeys([*CHECKED_IN_TEST_EXTRACT, "rcm.nullspace", "rcm.decoupling", "rcm.damping_bounds",
             "rcm.barrier_continuous", "rcm.axial_guard", "raven.deviation_stop", "raven.deviation_stop_3d",
-            "raven.haptic_force"])]
+            "raven.haptic_force", "cfmpa.builtdr_inclusive", "cfmpa.property8", "cfmpa.halfspace_convex",
+            "cfmpa.arc_in_triangle", "cfmpa.check_path", "cfmpa.segment_modified_full_speed"])]
 
 rng = np.random.default_rng(19)
 
@@ -216,3 +227,22 @@ def test_raven_deviation_stop_3d():
         outcomes.add("stop" if got[-1] == 1.0 and (values["stopped"] == 1 or deviation > values["tol"] ** 2)
                      else "follow")
     assert outcomes == {"stop", "follow", "no run"}
+
+
+# ------------------------------------------------------------------ cfmpa (seed 002)
+
+
+@pytest.mark.parametrize("name, inputs, outputs", [
+    ("cfmpa.halfspace_convex", ["t", "x1", "y1", "x2", "y2"], ["z1", "z2"]),
+    ("cfmpa.arc_in_triangle", ["u", "ua"], ["cs", "sn"]),
+    ("cfmpa.segment_modified_full_speed", ["sg1", "w1", "sg2", "w2", "lam", "b1", "dt", "b2"], ["p1", "p2"]),
+])
+def test_cfmpa_scalar_steps_agree_with_the_model(name, inputs, outputs):
+    runs = 0
+    for k in range(60):
+        state = {v: float(x) for v, x in zip(inputs, rng.uniform(-1.5, 1.5, len(inputs)))}
+        if k % 3 == 0:  # also states on the edges of the models' tests
+            state = {v: float(round(x * 2) / 2) for v, x in state.items()}
+        values, enabled = check_scalar(name, state, outputs)
+        runs += bool(enabled)
+    assert runs > 0  # some states are inside the step's tests
