@@ -19,6 +19,7 @@ import numpy as np
 
 from certiloop.falsify.batch import compiled
 from certiloop.falsify.choosers import Diverged, Scripted
+from certiloop.falsify.depth import _deep, _depth
 from certiloop.falsify.evaluate import Blocked, Compiler, NeedValue
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
@@ -74,7 +75,6 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
                       families: tuple[int, int]) -> tuple[Run | None, str]:
     """Replay a batch run in the interpreter: (the replayed run, how it was confirmed), or
     (None, "") if it does not replay to a violation."""
-    from certiloop.falsify.search import _deep, _depth
 
     failures = (Diverged, Rejected, Blocked, Inexact, ArithmeticError)
     floats = Interpreter(theorem, max_steps=max_steps, families=families)

@@ -17,10 +17,10 @@ from fractions import Fraction
 from typing import Any
 
 from certiloop.falsify.choosers import Chooser, Diverged
+from certiloop.falsify.depth import FLOAT_TOLERANCE
 from certiloop.falsify.evaluate import Blocked, Table
 from certiloop.falsify.flows import Inexact, confirm_numerically
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
-from certiloop.falsify.search import FLOAT_TOLERANCE
 from certiloop.models.lang.programs import Loop, children
 from certiloop.models.lang.theorem import Theorem
 

@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from certiloop.falsify.choosers import Diverged, HypothesisChooser, Recording, Scripted
+from certiloop.falsify.depth import FLOAT_TOLERANCE, _deep, _depth  # noqa: F401 (re-exported)
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
@@ -34,7 +35,6 @@ from certiloop.models.lang.theorem import Theorem
 
 SHRINK_SECONDS = 15  # hypothesis shrinks for up to 5 minutes by default; a trace this
 # short is readable, and CI must not wait minutes for a smaller one
-FLOAT_TOLERANCE = 1e-6  # relative: a float-only violation must be deeper than this
 DEFAULT_DATABASE = Path(".certiloop") / "hypothesis"
 
 
@@ -227,21 +227,3 @@ def confirm(theorem: Theorem, script, run: Run, opts: Options) -> str:
     return ""
 
 
-def _depth(run: Run) -> tuple[float, float]:
-    """The smallest guarantee margin at the end of the run, and the float tolerance."""
-    last = run.checkpoints[-1]
-    worst = min(last.margins.values(), default=0.0)
-    return worst, FLOAT_TOLERANCE * max([1.0] + [abs(v) for v in _numbers(last.state)])
-
-
-def _deep(run: Run) -> bool:
-    worst, tolerance = _depth(run)
-    return worst < -tolerance
-
-
-def _numbers(state: dict[str, Any]):
-    for v in state.values():
-        if isinstance(v, dict):
-            yield from _numbers(v)
-        elif isinstance(v, float):
-            yield v

@@ -1,0 +1,31 @@
+"""How deep a run's violation is: the guarantee's smallest margin at the end of the run, against
+the float tolerance, so that a float-only violation counts only when rounding cannot explain it.
+Shared by the hypothesis search and the batch phase (neither imports the other for it)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from certiloop.falsify.interpreter import Run
+
+FLOAT_TOLERANCE = 1e-6  # relative: a float-only violation must be deeper than this
+
+
+def _depth(run: Run) -> tuple[float, float]:
+    """The smallest guarantee margin at the end of the run, and the float tolerance."""
+    last = run.checkpoints[-1]
+    worst = min(last.margins.values(), default=0.0)
+    return worst, FLOAT_TOLERANCE * max([1.0] + [abs(v) for v in _numbers(last.state)])
+
+
+def _deep(run: Run) -> bool:
+    worst, tolerance = _depth(run)
+    return worst < -tolerance
+
+
+def _numbers(state: dict[str, Any]):
+    for v in state.values():
+        if isinstance(v, dict):
+            yield from _numbers(v)
+        elif isinstance(v, float):
+            yield v
