@@ -12,8 +12,6 @@ from fractions import Fraction
 from typing import Any, Callable
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.optimize import brentq
 
 from certiloop.falsify.evaluate import Blocked, Compiler, margin
 from certiloop.models.lang.programs import ODE
@@ -120,6 +118,8 @@ class Flow:
         y0 = [float(state[n]) for n in names]
         try:
             with np.errstate(all="ignore"):  # a blow-up is detected below, not printed
+                from scipy.integrate import solve_ivp  # lazily: importing scipy costs 0.35 s per process
+
                 sol = solve_ivp(f, (0.0, horizon), y0, events=(leaves, escapes), dense_output=True,
                                 rtol=RTOL, atol=ATOL)
         except (ValueError, OverflowError) as exc:  # event location on a blown-up solution
@@ -162,6 +162,8 @@ def _last_inside(g, start: float, end: float, depth: int) -> float:
         if g(t) < 0:
             if g(previous) > 0:
                 try:
+                    from scipy.optimize import brentq
+
                     root = brentq(g, previous, t, xtol=1e-14)
                 except ValueError:  # g overflowed to inf/nan between the samples
                     return previous
@@ -216,6 +218,8 @@ def confirm_numerically(ode: ODE, before: dict[str, Any], tau: Any, after: dict[
 
     y0 = [float(before[n]) for n in names]
     with np.errstate(all="ignore"):
+        from scipy.integrate import solve_ivp
+
         sol = solve_ivp(f, (0.0, duration), y0, method="DOP853", rtol=1e-12, atol=1e-14)
     if sol.status != 0:
         return f"the numerical integration failed: {sol.message}"

@@ -14,10 +14,12 @@ from __future__ import annotations
 import time
 from concurrent.futures import Future
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any, Callable
 
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.engine.prover import Prover
+
+if TYPE_CHECKING:  # the prover (z3, sympy) is imported only when a model is not cached
+    from certiloop.proofs.engine.prover import Prover
 
 
 @dataclass
@@ -148,15 +150,19 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
                      data.get("nonblocking"), opinion, result.inconsistent)
 
 
-def run_gate(theorems: list[Theorem], prover: Prover, opts: GateOptions, cache=None,
-             on_model=None, on_start=None, into: list[GateEntry] | None = None) -> list[GateEntry]:
+def run_gate(theorems: list[Theorem], start_prover: Callable[[], Prover], rlimit: int,
+             opts: GateOptions, cache=None, on_model=None, on_start=None,
+             into: list[GateEntry] | None = None) -> list[GateEntry]:
     """Gate each theorem in order; each entry is appended to `into` as soon as it is done
-    (so an interrupted gate still has the finished ones to report)."""
+    (so an interrupted gate still has the finished ones to report). `start_prover` is called
+    only if some model is not in the cache (a warm gate never loads z3 or sympy); `rlimit`
+    is its budget, part of each cache key."""
     entries = [] if into is None else into
-    setting = f"{opts.text()}/rlimit={prover.budget.rlimit}"
+    setting = f"{opts.text()}/rlimit={rlimit}"
     keys = [cache.key("gate", f"{t.canonical}\n{setting}") if cache else None for t in theorems]
     hits = [cache.get(key) if cache else None for key in keys]
     todo = [i for i, hit in enumerate(hits) if hit is None]
+    prover = start_prover() if todo else None
     # the next model's falsifier is queued before this model's obligations, so the workers
     # always have it to run while the proof waits on its last obligations
     falsifiers = dict.fromkeys(todo[:1], prover.submit(falsify_task, theorems[todo[0]], opts)) if todo else {}

@@ -394,7 +394,6 @@ def cmd_gate(args: argparse.Namespace) -> int:
     from certiloop.proofs.cli.gate_view import show_gate
     from certiloop.proofs.cli.loading import load_all, project_models
     from certiloop.proofs.engine.cache import Cache
-    from certiloop.proofs.engine.prover import Prover
 
     theorems = load_all(args.models or project_models())
     cache = None if args.no_cache else Cache(Path(args.cache) if args.cache else None)
@@ -402,10 +401,18 @@ def cmd_gate(args: argparse.Namespace) -> int:
     level = ui.verbosity(args)
     start = time.perf_counter()
     entries: list = []
+    budget = _budget(args)
+
+    def start_prover(stack: contextlib.ExitStack):
+        from certiloop.proofs.engine.prover import Prover
+
+        return stack.enter_context(Prover(jobs=args.jobs, budget=budget, executor=args.executor))
+
     try:
-        with Prover(jobs=args.jobs, budget=_budget(args), executor=args.executor) as prover, \
+        with contextlib.ExitStack() as stack, \
                 ui.ModelProgress("gate:", len(theorems), level > ui.QUIET) as progress:
-            run_gate(theorems, prover, opts, cache, on_start=progress.model, into=entries)
+            run_gate(theorems, lambda: start_prover(stack), budget.rlimit, opts, cache,
+                     on_start=progress.model, into=entries)
     except KeyboardInterrupt:
         _gate_reports(args, entries, len(theorems))
         raise

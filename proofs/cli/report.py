@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
 from certiloop.proofs.cli import ui
-from certiloop.proofs.engine.prover import TheoremResult
+
+if TYPE_CHECKING:  # annotations only: a warm gate's table must not load z3 and sympy
+    from certiloop.proofs.engine.prover import TheoremResult
 
 STYLE = {"proved": "green", "refuted": "red", "unknown": "yellow", "rule failed": "yellow"}
 
