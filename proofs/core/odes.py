@@ -247,7 +247,10 @@ def cofactors(atom: Node, ode: ODE) -> tuple[Node | None, Node | None]:
     gens = sorted(ps.free_symbols | dp.free_symbols, key=str)
     if not gens:
         return exact, None
-    (q,), _ = sympy.reduced(dp, [ps], *gens, domain=sympy.QQ)
+    if ps.is_number or dp == 0:
+        return exact, None
+    quotients, _ = sympy.reduced(dp, [ps], *gens, domain=sympy.QQ)
+    q = quotients[0] if quotients else sympy.Integer(0)
     quotient = from_sympy(sympy.expand(q), table) if q != 0 else None
     return exact, quotient
 
