@@ -184,3 +184,20 @@ def test_planned_chain_steps_only_use_earlier_links():
         verdicts = {o.path: p._discharge([o], None, p.budget)[0].verdict for o in obs}
     assert verdicts["ODE dI 1 / derivative condition"] != "proved"
     assert verdicts["ODE dI 2 / derivative condition"] == "proved"
+
+
+@settings(max_examples=10)
+@given(st.sampled_from([-2, -1, 0, 1, 2]), st.sampled_from([-2, -1, 0, 1, 2]), st.sampled_from([-1, 0, 1]),
+       st.sampled_from([">", ">=", "!="]))
+def test_whatever_is_proved_holds_along_the_flow(rate, inflow, level, op):
+    """Soundness against an independent witness: x' = rate*x + inflow with x op level at the
+    start; if the engine proves x op level for ever, integration from starts on the
+    boundary side must keep it (x > level for !=: a continuous flow cannot jump across)."""
+    from certiloop.models.lang.terms import cmp
+
+    claim = cmp(op, x, level)
+    if verdict(claim, ode({x: rate * x + inflow}), claim) != "proved":
+        return
+    starts = [[level + d] for d in ((0.0, 1e-3, 1.0, 5.0) if op == ">=" else (1e-3, 1.0, 5.0))]
+    keeps = (lambda x: x >= level - 1e-9) if op == ">=" else (lambda x: x > level)
+    assert holds_along(lambda x: [rate * x + inflow], starts, keeps)
