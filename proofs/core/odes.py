@@ -249,7 +249,10 @@ def cofactors(atom: Node, ode: ODE) -> tuple[Node | None, Node | None]:
         return exact, None
     if ps.is_number or dp == 0:
         return exact, None
-    quotients, _ = sympy.reduced(dp, [ps], *gens, domain=sympy.QQ)
+    try:
+        quotients, _ = sympy.reduced(dp, [ps], *gens, domain=sympy.QQ)
+    except sympy.polys.polyerrors.PolynomialError:  # not a polynomial over QQ after all: no guess
+        return exact, None
     q = quotients[0] if quotients else sympy.Integer(0)
     quotient = from_sympy(sympy.expand(q), table) if q != 0 else None
     return exact, quotient
