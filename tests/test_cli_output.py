@@ -27,8 +27,9 @@ NON_POLYNOMIAL = textwrap.dedent("""
     from certiloop.models import And, Reals, Theorem, assign, ode
 
     x, t = Reals("x t")
-    # x' = x^2 has no polynomial solution: without invariants= only dW applies, and it fails
-    square = Theorem("np.square", And(x >= 1, t == 0), ode({x: x * x, t: 1}, t <= 1), x >= 1)
+    # a rotation has no polynomial solution: without invariants= dW applies, and it fails
+    # (x <= 1 holds, by x^2 + t^2 = 1, which no automatic candidate gives)
+    square = Theorem("np.square", And(x == 1, t == 0), ode({x: t, t: -x}), x <= 1)
     square_inv = Theorem("np.square_inv", And(x >= 1, t == 0),
                          ode({x: x * x, t: 1}, t <= 1, invariants=[x >= 1]), x >= 1)
     bad_inv = Theorem("np.bad_inv", And(x >= 1, t == 0),

@@ -6,6 +6,8 @@ at the start of the flow) and a duration symbol; callers substitute the current 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import sympy
 
 from certiloop.models.lang.programs import ODE
@@ -23,6 +25,7 @@ from certiloop.models.lang.terms import (
     substitute,
 )
 from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
+from certiloop.proofs.core.wd import has_division
 
 _SOLUTIONS: dict[tuple, dict[str, Node] | None] = {}
 
@@ -96,13 +99,14 @@ def dI_condition(inv: Node, ode: ODE) -> Node:
         return And(*(dI_condition(a, ode) for a in inv.args))
     if inv.op == "true":
         return TRUE
-    if inv.op != "cmp" or inv.payload == "!=":
+    if inv.op != "cmp":
         raise ModelError(
-            f"differential invariant `{inv}` must be a conjunction of =, <=, <, >=, > comparisons"
+            f"differential invariant `{inv}` must be a conjunction of =, !=, <=, <, >=, > comparisons"
         )
     a, b = inv.args
     da, db = lie_derivative(a, ode), lie_derivative(b, ode)
-    op = {"<": "<=", ">": ">="}.get(inv.payload, inv.payload)
+    # a != b: a - b is constant along the flow when (a - b)' = 0
+    op = {"<": "<=", ">": ">=", "!=": "=="}.get(inv.payload, inv.payload)
     return cmp(op, da, db)
 
 
@@ -165,3 +169,119 @@ def _atom_along(atom: Node, solution: dict[str, Node], tau: Node, s: Node) -> No
 def solvable(ode: ODE) -> bool:
     return polynomial_solution(ode, Real("s@probe")) is not None
 
+
+
+# --------------------------------------------------------------------------- invariant atoms
+#
+# A differential invariant is proved atom by atom, as a differential-cut chain: each atom's
+# premise may assume the domain and the atoms before it, never itself or a later one. An atom
+# `a op b` is read as `p op' 0` with p a polynomial (rational) term:
+#   a >= b, a > b : p = a - b          a <= b, a < b : p = b - a          a = b, a != b : p = a - b
+# and proved by one of these rules (the rule and any cofactor come from outside the core, as a
+# plan; each is sound for every choice, so a bad plan can only fail to prove):
+#   dI       p' >= 0 (>=, >), p' = 0 (=, !=)                           inside the domain
+#   dbx g    p' >= g*p (>=, >), p' = g*p (=, !=), g a polynomial      inside the domain
+#            (Darboux: (p*exp(-∫g))' = (p' - g*p)*exp(-∫g), so the sign of p never changes;
+#            when p' - g*p is identically 0 the premise is decided here, exactly, by sympy)
+#   barrier  p = 0 -> p' > 0, for > only (p > 0 until a first zero, where p' <= 0)
+
+METHODS = ("dI", "dbx", "barrier")
+
+
+@dataclass(frozen=True)
+class OdeStep:
+    """One link of a differential-cut chain: an atom and the rule that proves it."""
+
+    atom: Node
+    method: str = "dI"
+    cofactor: Node | None = None
+
+
+def default_chain(ode: ODE) -> tuple[OdeStep, ...]:
+    """The annotated invariants atom by atom, in the author's order: a Darboux identity
+    where one exists (complete for that atom), else dI."""
+    steps = []
+    for atom in (a for inv in ode.invariants for a in conjuncts(inv)):
+        exact, _ = cofactors(atom, ode)
+        steps.append(OdeStep(atom, "dbx", exact) if exact is not None else OdeStep(atom))
+    return tuple(steps)
+
+
+def atom_polynomial(atom: Node) -> tuple[Node, str]:
+    """(p, op) with the atom equivalent to `p op 0`, op in >=, >, ==, !=."""
+    if atom.op != "cmp":
+        raise ModelError(f"differential invariant `{atom}` must be a conjunction of comparisons")
+    a, b = atom.args
+    op = atom.payload
+    if op in ("<=", "<"):
+        return b - a, {"<=": ">=", "<": ">"}[op]
+    return a - b, op
+
+
+def conjuncts(f: Node) -> tuple[Node, ...]:
+    """The atoms of a conjunction, in order (`true` has none)."""
+    if f.op == "and":
+        return tuple(x for a in f.args for x in conjuncts(a))
+    if f.op == "true":
+        return ()
+    return (f,)
+
+
+def _polynomial_in(e: sympy.Expr) -> bool:
+    """A polynomial over QQ in all its symbols (no division by anything but a number)."""
+    _, den = sympy.fraction(sympy.cancel(e))
+    return den.is_number and den != 0
+
+
+def cofactors(atom: Node, ode: ODE) -> tuple[Node | None, Node | None]:
+    """(exact, quotient): a polynomial g with p' = g*p identically, if one exists, and the
+    quotient of p' by p in QQ[all symbols] (a guess for dbx g). Either may be None."""
+    p, _ = atom_polynomial(atom)
+    table = SympyTable()
+    ps = sympy.expand(to_sympy(p, table))
+    dp = sympy.expand(to_sympy(lie_derivative(p, ode), table))
+    if ps == 0 or not _polynomial_in(ps) or not _polynomial_in(dp):
+        return None, None
+    ratio = sympy.cancel(dp / ps)
+    exact = from_sympy(sympy.expand(ratio), table) if _polynomial_in(ratio) else None
+    gens = sorted(ps.free_symbols | dp.free_symbols, key=str)
+    if not gens:
+        return exact, None
+    if ps.is_number or dp == 0:
+        return exact, None
+    try:
+        quotients, _ = sympy.reduced(dp, [ps], *gens, domain=sympy.QQ)
+    except sympy.polys.polyerrors.PolynomialError:  # not a polynomial over QQ after all: no guess
+        return exact, None
+    q = quotients[0] if quotients else sympy.Integer(0)
+    quotient = from_sympy(sympy.expand(q), table) if q != 0 else None
+    return exact, quotient
+
+
+def darboux_identity(p: Node, g: Node, ode: ODE) -> bool:
+    """p' - g*p == 0 identically, decided by exact rational-function arithmetic."""
+    table = SympyTable()
+    diff = to_sympy(lie_derivative(p, ode), table) - to_sympy(g, table) * to_sympy(p, table)
+    return sympy.cancel(sympy.expand(diff)) == 0
+
+
+def atom_premise(atom: Node, ode: ODE, method: str, cofactor: Node | None = None) -> Node | None:
+    """What `method` must show inside the domain (and after the earlier atoms) for the atom
+    to be invariant; None when nothing is left to show (a Darboux identity, checked here)."""
+    p, op = atom_polynomial(atom)
+    dp = lie_derivative(p, ode)
+    if method == "dI":
+        return cmp(">=" if op in (">=", ">") else "==", dp, 0)
+    if method == "dbx":
+        if cofactor is None or has_division(cofactor) or not cofactor.sort.is_numeric:
+            raise ValueError(f"dbx for `{atom}` needs a polynomial cofactor, got {cofactor}")
+        if darboux_identity(p, cofactor, ode):
+            return None
+        table = SympyTable()
+        rest = sympy.expand(to_sympy(dp, table) - to_sympy(cofactor, table) * to_sympy(p, table))
+        return cmp(">=" if op in (">=", ">") else "==", from_sympy(rest, table), 0)
+    if method == "barrier":
+        if op != ">":
+            raise ValueError(f"the barrier rule proves strict inequalities only, not `{atom}`")
+        return Implies(cmp("==", p, 0), cmp(">", dp, 0))
+    raise ValueError(f"unknown ODE rule {method!r}")

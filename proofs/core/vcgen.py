@@ -36,7 +36,14 @@ from certiloop.models.lang.terms import (
     substitute,
 )
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.core.odes import dI_condition, holds_along, polynomial_solution
+from certiloop.proofs.core.odes import (
+    OdeStep,
+    atom_premise,
+    conjuncts,
+    default_chain,
+    holds_along,
+    polynomial_solution,
+)
 from certiloop.proofs.core.wd import defined, has_division
 from certiloop.proofs.core.wp import expand_modalities, has_modality
 
@@ -57,6 +64,9 @@ class Obligation:
     # any: when it is false, that rule failed to apply, which does not make the claim false.
     # A label for reports only; it never affects a verdict.
     rule: str = field(default="", compare=False)
+    # (ODE key, link number, "init" | "premise") for the links of an ODE's cut chain, so a
+    # planner can see which link failed; a label only
+    ode_step: tuple = field(default=(), compare=False)
 
     @property
     def text(self) -> str:
@@ -117,6 +127,9 @@ Emit = Callable[[State, Node, str], None]
 @dataclass
 class VCGen:
     theorem: Theorem
+    # ODE key -> the cut chain to prove it with (from a planner outside the core: any chain
+    # is sound, a bad one only fails to prove); without one, the annotated invariants
+    plan: dict[tuple, tuple[OdeStep, ...]] = field(default_factory=dict)
     names: Names = field(default_factory=Names)
     obligations: list[Obligation] = field(default_factory=list)
 
@@ -133,13 +146,14 @@ class VCGen:
         self.require_defined(st, "the guarantee", self.theorem.guarantee)
         self.emit(st, self.theorem.guarantee, "postcondition")
 
-    def emit(self, st: State, goal: Node, what: str, kind: str = "safety") -> None:
+    def emit(self, st: State, goal: Node, what: str, kind: str = "safety", step: tuple = ()) -> None:
         goal = st.value(expand_modalities(goal, self.names, positive=True))
         facts = st.facts
         path = " / ".join(st.path + (what,))
         oid = f"o{len(self.obligations) + 1}"
         self.obligations.append(Obligation(oid, path, Implies(And(*facts), goal), self.theorem.name,
-                                           self.theorem.abbreviations, kind, rule=_blamed(st.rules)))
+                                           self.theorem.abbreviations, kind, rule=_blamed(st.rules),
+                                           ode_step=step))
 
     def require_defined(self, st: State, what: str, *parts: Node, annotation: bool = False) -> None:
         """An obligation that the terms and formulas `parts`, evaluated in this state, never
@@ -234,8 +248,11 @@ class VCGen:
 
     def _ode(self, p: ODE, st: State, k: Callable[[State], None]) -> None:
         self._ode_region(p, st)
-        if p.invariants:
-            self._ode_cuts(p, st, k)
+        chain = self.plan.get(p.key)
+        if chain is None and p.invariants:
+            chain = default_chain(p)
+        if chain is not None and (chain or p.invariants):
+            self._ode_cuts(p, chain, st, k)
             return
         s = Var("s@flow")
         sol = polynomial_solution(p, s)
@@ -248,15 +265,23 @@ class VCGen:
         end = {name: st.value(substitute(x, {s.name: tau})) for name, x in sol.items()}
         k(st.assume(tau >= 0, st.value(along)).bind(end).at("ODE solve"))
 
-    def _ode_cuts(self, p: ODE, st: State, k: Callable[[State], None]) -> None:
+    def _ode_cuts(self, p: ODE, chain: tuple[OdeStep, ...], st: State, k: Callable[[State], None]) -> None:
+        """dC chain: each link holds initially (where the domain does: a flow starts inside
+        it) and its rule's premise holds inside the domain, assuming the earlier links only."""
+        annotated = {a.key for inv in p.invariants for a in conjuncts(inv)}
         after = self.havoc(st, {v.payload: v for v in p.variables}, "during ODE")
+        start = st.assume(st.value(p.domain))
         known = [p.domain]
-        for n, inv in enumerate(p.invariants, 1):
-            self.emit(st.via(f"ODE dI {n} init", "dI-init"), inv, "holds initially")
-            cond = dI_condition(inv, p)
-            self.emit(after.assume(*(after.value(f) for f in known)).via(f"ODE dI {n}", "dI"), cond,
-                      "derivative condition")
-            known.append(inv)
+        for n, step in enumerate(chain, 1):
+            if step.atom.key not in annotated and has_division(step.atom):
+                raise ValueError(f"planned invariant `{step.atom}` divides by a term: not checked defined")
+            self.emit(start.via(f"ODE {step.method} {n} init", "dI-init"), step.atom, "holds initially",
+                      step=(p.key, n, "init"))
+            cond = atom_premise(step.atom, p, step.method, step.cofactor)
+            if cond is not None:
+                self.emit(after.assume(*(after.value(f) for f in known)).via(f"ODE {step.method} {n}", "dI"),
+                          cond, "derivative condition", step=(p.key, n, "premise"))
+            known.append(step.atom)
         k(after.assume(*(after.value(f) for f in known)).via("ODE dC/dW", "dC"))
 
 
@@ -283,7 +308,8 @@ def _indices(target: Node) -> tuple[Node, ...]:
     return tuple(idx)
 
 
-def generate(theorem: Theorem) -> list[Obligation]:
-    """All proof obligations of a theorem, in proof-tree order."""
-    return VCGen(theorem).run()
+def generate(theorem: Theorem, plan: dict[tuple, tuple[OdeStep, ...]] | None = None) -> list[Obligation]:
+    """All proof obligations of a theorem, in proof-tree order; `plan` chooses how ODEs are
+    proved (see VCGen.plan)."""
+    return VCGen(theorem, plan=dict(plan or {})).run()
 

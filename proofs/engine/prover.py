@@ -15,8 +15,9 @@ from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.vacuity import nonblocking_obligations
 from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.core.verdicts import ObligationResult, RunEvidence, decide_theorem
-from certiloop.proofs.engine.budget import QUICK_SHARE, Budget
+from certiloop.proofs.engine.budget import PLAN_SHARE, QUICK_SHARE, Budget
 from certiloop.proofs.engine.discharge import discharge_one
+from certiloop.proofs.engine.odeplan import plan_odes
 
 
 @dataclass
@@ -178,6 +179,8 @@ class Prover:
                     on_result(r)
         else:
             results = self._discharge(obligations, on_result, self.budget)
+            if any(r.verdict != "proved" for r in results):
+                results = self._planned(theorem, results)
             if search and any(r.verdict != "proved" for r in results):
                 refutation, why = self._run(_refute_task, theorem, self.budget)
                 evidence = confirm_run(theorem, refutation) if refutation is not None else None
@@ -189,6 +192,18 @@ class Prover:
             self._vacuity(theorem, result)
         result.seconds = time.perf_counter() - start
         return result
+
+    def _planned(self, theorem: Theorem, results: list[ObligationResult]) -> list[ObligationResult]:
+        """When obligations are open, search ODE cut chains (automatic invariants, other
+        rules and orders) and keep the planned proof if it leaves fewer open. Both are
+        sound; the search only chooses which to report."""
+        planning = self.budget.share(PLAN_SHARE)
+        plan = plan_odes(theorem, lambda ob: discharge_one(ob, planning))
+        if not plan:
+            return results
+        planned = self._discharge(generate(theorem, plan), None, self.budget)
+        open_now = sum(r.verdict != "proved" for r in results)
+        return planned if sum(r.verdict != "proved" for r in planned) < open_now else results
 
     def _vacuity(self, theorem: Theorem, result: TheoremResult) -> None:
         """The step has a run from every state it can start in (obligations), and here is

@@ -1,0 +1,155 @@
+"""Choosing how each ODE is proved: a differential-cut chain and a rule per link.
+
+This is search, outside the trusted core: the core turns any chain into obligations that are
+sound whatever the chain (see proofs/core/odes.py), so a wrong choice here can only fail to
+prove. The candidates for an ODE are its annotated invariants, atom by atom; for an ODE with
+neither an annotation nor a polynomial solution, the atoms of the guarantee, the domain and
+the assumptions that mention its variables (automatic invariants). Each round generates the
+obligations with the current chains and discharges the links' own obligations; the first
+failing link of a chain then changes: a link that does not hold initially is dropped, one
+whose premise fails tries its next rule (dI, dbx with the quotient of p' by p as cofactor,
+the strict barrier), then once the end of the chain (where more atoms are known), then is
+dropped. The round count is bounded, so the plan is deterministic.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq
+from certiloop.models.lang.terms import ModelError, Node, free_vars
+from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.core.odes import (
+    OdeStep,
+    atom_polynomial,
+    atom_premise,
+    cofactors,
+    conjuncts,
+    solvable,
+)
+from certiloop.proofs.core.vcgen import Obligation, generate
+from certiloop.proofs.core.verdicts import ObligationResult
+from certiloop.proofs.core.wd import has_division
+
+MAX_ROUNDS = 40
+Plan = dict[tuple, tuple[OdeStep, ...]]
+
+
+def odes_of(p: Program) -> list[ODE]:
+    """The ODEs of a program, in program order, each once."""
+    found: dict[tuple, ODE] = {}
+
+    def walk(q: Program) -> None:
+        if isinstance(q, ODE):
+            found.setdefault(q.key, q)
+        elif isinstance(q, Seq):
+            for part in q.parts:
+                walk(part)
+        elif isinstance(q, Choice):
+            for alt in q.alternatives:
+                walk(alt)
+        elif isinstance(q, Loop):
+            walk(q.body)
+
+    walk(p)
+    return list(found.values())
+
+
+def _usable(atom: Node, ode: ODE) -> bool:
+    """An atom the core can take as a link: a comparison of arithmetic terms, no division
+    by a term, and a derivative it can compute."""
+    if atom.op != "cmp" or has_division(atom) or not atom.args[0].sort.is_numeric:
+        return False
+    try:
+        atom_premise(atom, ode, "dI")
+    except (TypeError, ValueError, ModelError):
+        return False
+    return True
+
+
+def candidates(theorem: Theorem, ode: ODE) -> list[Node] | None:
+    """Atoms to build the ODE's chain from, or None to leave the ODE to the core's default."""
+    if ode.invariants:
+        return [a for inv in ode.invariants for a in conjuncts(inv)]
+    if solvable(ode):
+        return None
+    names = {v.payload for v in ode.variables}
+    seen: dict[tuple, Node] = {}
+    for source in (theorem.guarantee, ode.domain, theorem.assumptions):
+        for atom in conjuncts(source):
+            if atom.key not in seen and set(free_vars(atom)) & names and _usable(atom, ode):
+                seen[atom.key] = atom
+    return list(seen.values()) or None
+
+
+def rule_options(atom: Node, ode: ODE) -> list[OdeStep]:
+    """The rules to try for one link, best first."""
+    try:
+        exact, quotient = cofactors(atom, ode)
+    except (TypeError, ValueError, ModelError):
+        return [OdeStep(atom)]
+    if exact is not None:
+        return [OdeStep(atom, "dbx", exact)]  # a Darboux identity: nothing left to prove
+    options = [OdeStep(atom)]
+    if quotient is not None:
+        options.append(OdeStep(atom, "dbx", quotient))
+    if atom_polynomial(atom)[1] == ">":
+        options.append(OdeStep(atom, "barrier"))
+    return options
+
+
+@dataclass
+class _Link:
+    options: list[OdeStep]
+    tried: int = 0
+    deferred: bool = False
+
+    @property
+    def step(self) -> OdeStep:
+        return self.options[self.tried]
+
+
+def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResult]) -> Plan | None:
+    """A chain per ODE whose links' obligations all discharge, as far as the search gets;
+    None when no ODE of the theorem is open to planning."""
+    chains: dict[tuple, list[_Link]] = {}
+    for ode in odes_of(theorem.program):
+        atoms = candidates(theorem, ode)
+        if atoms:
+            chains[ode.key] = [_Link(rule_options(a, ode)) for a in atoms]
+    if not chains:
+        return None
+    known: dict[tuple, str] = {}  # obligation formula -> verdict (fresh names are deterministic)
+    plan: Plan = {}
+    for _ in range(MAX_ROUNDS):
+        plan = {key: tuple(link.step for link in links) for key, links in chains.items()}
+        failed: dict[tuple, dict[int, str]] = {}
+        for ob in generate(theorem, plan):
+            if not ob.ode_step or ob.ode_step[0] not in chains:
+                continue
+            key, n, kind = ob.ode_step
+            if ob.formula.key not in known:
+                known[ob.formula.key] = discharge(ob).verdict
+            if known[ob.formula.key] != "proved" and failed.get(key, {}).get(n) != "init":
+                failed.setdefault(key, {})[n] = kind
+        if not failed:
+            return plan
+        for key, bad in failed.items():
+            _revise(chains[key], min(bad), bad[min(bad)])
+    return plan
+
+
+def _revise(links: list[_Link], n: int, kind: str) -> None:
+    """Change the first failing link (number n, from 1) of a chain."""
+    link = links[n - 1]
+    if kind == "init":
+        del links[n - 1]
+    elif link.tried + 1 < len(link.options):
+        link.tried += 1
+    elif not link.deferred and n < len(links):
+        del links[n - 1]
+        link.tried, link.deferred = 0, True
+        links.append(link)
+    else:
+        del links[n - 1]
