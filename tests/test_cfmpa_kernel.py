@@ -230,7 +230,10 @@ def test_planner_refuses_bad_input():
 
 
 def test_kernel_imports_numpy_only():
-    code = ("import sys, certiloop.kernel.dualarm, certiloop.kernel.dualarm_planner; "
+    """Also after a database is built and planned (the extracted code's hash pins read the
+    model library, which must not pull in a prover)."""
+    code = ("import sys, certiloop.kernel.dualarm as d, certiloop.kernel.dualarm_planner as p; "
+            "p.plan(d.builtdr(d.reference_scene(0.4)), (0, 0), (1, 1)); "
             "heavy = ('z3', 'sympy', 'hypothesis', 'scipy', 'cvxpy', 'shapely'); "
             "print([m for m in heavy if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
