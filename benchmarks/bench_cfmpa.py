@@ -1,6 +1,6 @@
 """Seed 002's qualitative claims and builtDR / planner timing on the dual-arm scenes.
 
-    python benchmarks/bench_cfmpa.py [--dt 0.2 0.1] [--queries 40] [--check]
+    python benchmarks/bench_cfmpa.py [--dt 0.2 0.1] [--queries 40] [--check] [--plot DIR]
 
 For each scene and Δt: builtDR for the original and the modified swept region (median of
 --repeats), the free fractions, seeded (start, goal) queries planned on both databases, and the
@@ -20,6 +20,7 @@ import statistics
 import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 from common import record
@@ -124,9 +125,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--check", action="store_true", help="exit 1 unless the paper's claims hold")
+    ap.add_argument("--plot", type=Path, metavar="DIR", help="also plot the occupancy layers (plot_cfmpa.py)")
     args = ap.parse_args(argv)
     if any(not 0 < dt < 1.5 for dt in args.dt):
         ap.error("--dt must lie in (0, 1.5)")
+    if args.plot is not None:
+        from plot_cfmpa import plot_layers
+
+        for name in args.scene:
+            for dt in args.dt:
+                for path in plot_layers(scene_for(name, dt), name, args.plot):
+                    print(f"wrote {path}")
     rows = [run(s, dt, args.repeats, args.queries, args.seed) for s in args.scene for dt in args.dt]
     record("cfmpa", rows)
     if args.check:

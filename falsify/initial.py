@@ -22,6 +22,7 @@ from certiloop.falsify.state import Rejected, get, put, remove, solve_linear
 from certiloop.models.lang.terms import INT, Node
 
 REPAIR_PASSES = 3
+REINSTANTIATE = 2  # extra rounds for assumptions with a bounded ∀ over Int
 
 
 def initial_state(interp, chooser) -> dict[str, Any]:
@@ -34,19 +35,29 @@ def initial_state(interp, chooser) -> dict[str, Any]:
         if sym.sort.is_array:
             s[name] = Table()
     assumptions = interp.theorem.assumptions
-    instances = _instances(interp, assumptions, {}, s, chooser)
-    counts = Counter(key for atom, env in instances for key in _leaves(interp, atom, env, s))
     edges: set = set()  # atoms whose edge was already considered (once per atom)
-    for _ in range(REPAIR_PASSES):
-        broken = 0
-        for atom, env in instances:
-            if not _repair(interp, atom, env, s, counts, chooser, edges):
-                broken += 1
-        if not broken:
-            break
-    if not interp._holds(interp.c(assumptions), s, assumptions):
-        raise Rejected("the drawn state does not satisfy the assumptions")
-    return s
+    # a bounded ∀ over Int is instantiated over the range drawn so far; repairs may move its
+    # bounds (a path's length), so it is instantiated again over the repaired range
+    rounds = 1 + REINSTANTIATE * _has_int_forall(assumptions)
+    for _ in range(rounds):
+        instances = _instances(interp, assumptions, {}, s, chooser)
+        counts = Counter(key for atom, env in instances for key in _leaves(interp, atom, env, s))
+        for _ in range(REPAIR_PASSES):
+            broken = 0
+            for atom, env in instances:
+                if not _repair(interp, atom, env, s, counts, chooser, edges):
+                    broken += 1
+            if not broken:
+                break
+        if interp._holds(interp.c(assumptions), s, assumptions):
+            return s
+    raise Rejected("the drawn state does not satisfy the assumptions")
+
+
+def _has_int_forall(f: Node) -> bool:
+    if f.op == "forall" and len(f.payload) == 1 and f.payload[0].sort == INT:
+        return True
+    return any(_has_int_forall(a) for a in f.args if isinstance(a, Node))
 
 
 def _instances(interp, f: Node, env: dict[str, Any], s, chooser) -> list[tuple[Node, dict]]:
@@ -56,6 +67,10 @@ def _instances(interp, f: Node, env: dict[str, Any], s, chooser) -> list[tuple[N
     if f.op == "or":
         pick = chooser.pick("disjunct", len(f.args))
         return _instances(interp, f.args[pick], env, s, chooser)
+    if f.op == "forall" and len(f.payload) == 1 and f.payload[0].sort == INT:
+        expanded = _bounded_instances(interp, f, env, s, chooser)
+        if expanded is not None:
+            return expanded
     if f.op == "forall" and all(not v.sort.is_numeric and not v.sort.is_array for v in f.payload):
         from itertools import product
 
@@ -66,6 +81,61 @@ def _instances(interp, f: Node, env: dict[str, Any], s, chooser) -> list[tuple[N
         return [i for combo in product(*pools)
                 for i in _instances(interp, f.args[0], {**env, **dict(zip(names, combo))}, s, chooser)]
     return [(f, env)]
+
+
+MAX_RANGE = 64  # elements of a bounded integer ∀ instantiated one by one (a path's elements)
+
+
+def _bounded_instances(interp, f: Node, env: dict[str, Any], s, chooser) -> list[tuple[Node, dict]] | None:
+    """`∀y. lo <= y < hi -> body` over Int (a path's elements): the atoms of body for each y in
+    the range the drawn state gives, so each element's atoms can be repaired one by one; an
+    implication inside is instantiated when its premise holds there. None when f is not of this
+    shape or the range is too long (then f stays one atom). The range is the one drawn now; the
+    final check of the assumptions as written decides either way."""
+    var = f.payload[0].payload
+    body = f.args[0]
+    if body.op != "implies":
+        return None
+    lo = hi = None
+    with _bound(s, env):
+        for atom in _conjunct_atoms(body.args[0]):
+            if atom.op != "cmp" or atom.args[0].op != "var" or atom.args[0].payload != var:
+                return None
+            try:
+                bound = interp._value(interp.c(atom.args[1]), s)
+            except Blocked:
+                return None
+            if isinstance(bound, bool) or not isinstance(bound, (int, float, Fraction)) \
+                    or bound != int(bound):
+                return None  # constants may come as floats or Fractions; integral ones are bounds
+            bound = int(bound)
+            if atom.payload in (">=", ">"):
+                lo = bound + (atom.payload == ">")
+            elif atom.payload in ("<", "<="):
+                hi = bound + (atom.payload == "<=")
+            else:
+                return None
+    if lo is None or hi is None or hi - lo > MAX_RANGE:
+        return None
+    out: list[tuple[Node, dict]] = []
+    for y in range(lo, hi):
+        out += _implied(interp, body.args[1], {**env, var: y}, s, chooser)
+    return out
+
+
+def _implied(interp, f: Node, env: dict[str, Any], s, chooser) -> list[tuple[Node, dict]]:
+    """Atoms of f (inside a bounded ∀): conjuncts split, `p -> q` kept only where p holds."""
+    if f.op == "and":
+        return [i for a in f.args for i in _implied(interp, a, env, s, chooser)]
+    if f.op == "implies":
+        with _bound(s, env):
+            holds = interp._holds(interp.c(f.args[0]), s, f.args[0])
+        return _implied(interp, f.args[1], env, s, chooser) if holds else []
+    return _instances(interp, f, env, s, chooser)
+
+
+def _conjunct_atoms(f: Node) -> list[Node]:
+    return [a for x in f.args for a in _conjunct_atoms(x)] if f.op == "and" else [f]
 
 
 def _leaves(interp, atom: Node, env: dict, s) -> list:

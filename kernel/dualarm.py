@@ -28,6 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from certiloop.kernel.cfmpa_builtdr import controller as _extracted_builtdr
+from certiloop.kernel.dualarm_pins import check_extracted
+
 MODES = ("original", "modified")
 GAP = 1e-9  # relative separation a free cell needs
 
@@ -197,6 +200,7 @@ def subordinate_enclosures(scene: Scene, dirs: np.ndarray):
 
 def builtdr(scene: Scene, mode: str = "modified", axis_count: int = 64) -> np.ndarray:
     """The state database D_R: (N, m, n) uint8, 1 where the swept regions may meet."""
+    check_extracted()
     dirs = axes(axis_count)
     boxes = scene.principal_boxes(mode)
     p1, p2 = arm_enclosures(scene.principal, boxes[:, 0, :], boxes[:, 1, :])
@@ -206,15 +210,19 @@ def builtdr(scene: Scene, mode: str = "modified", axis_count: int = 64) -> np.nd
     scale = max(np.abs(p2).max(), np.abs(sub.base).max() + sub.l1 + sub.l2)
     gap = np.float32(max(GAP * scale, 4 * np.finfo(np.float32).eps * scale))  # above float32 rounding
     m, n = scene.grid
-    out = np.empty((scene.layers, m, n), dtype=np.uint8)
+    meet = np.empty((scene.layers, m, n), dtype=bool)  # the overlap predicate of `cfmpa.builtdr`
     for k in range(scene.layers):
         # link 1 of the subordinate depends on the row only: (m, 1) broadcast over columns
         free = _separated(q1_min[k], q1_max[k], s1_min, s1_max, gap)[:, None]
         free = free & _separated(q2_min[k], q2_max[k], s1_min, s1_max, gap)[:, None]
         free = free & _separated(q1_min[k], q1_max[k], s2_min, s2_max, gap)
         free = free & _separated(q2_min[k], q2_max[k], s2_min, s2_max, gap)
-        out[k] = ~free
-    return out
+        meet[k] = ~free
+    # the database itself is filled by the code extracted from the proved model (Theorem 1)
+    database, enabled = _extracted_builtdr(scene.layers, m, n, meet)
+    if not enabled:  # cannot happen: the model's two branches cover every cell
+        raise RuntimeError("extracted builtDR has no run on this overlap array")
+    return database.astype(np.uint8)
 
 
 def reference_scene(dt: float = 0.1) -> Scene:

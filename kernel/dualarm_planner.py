@@ -20,6 +20,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from certiloop.kernel.cfmpa_check import controller as _extracted_check
+from certiloop.kernel.dualarm_pins import check_extracted
+
 MOVES = np.array([(di, dj) for di in (-1, 0, 1) for dj in (-1, 0, 1)])  # index 4 = stay
 STAY = 4
 INF = np.int64(1) << 60
@@ -37,22 +40,39 @@ class Plan:
 
 def check_path(P: np.ndarray, path, start, goal) -> tuple[bool, str]:
     """The runtime checker: (True, "") when `path` is a plan for database P (N, m, n), else
-    (False, why). Mirrors `cfmpa.check_path` element by element."""
+    (False, why). The verdict is the code extracted from the proved model `cfmpa.check_path`
+    (kernel/cfmpa_check.py); `_why_not` only words the reason."""
+    check_extracted()
+    P = np.asarray(P)
+    N, m, n = P.shape
+    cells = np.asarray(path, dtype=np.int64).reshape(-1, 2)
+    if N < 1 or m < 1 or n < 1 or len(start) != 2 or len(goal) != 2:  # the model's assumptions
+        return False, f"database shape {P.shape} or start/goal is not a valid query"
+    ok, enabled = _extracted_check(len(cells), int(start[0]), int(start[1]), int(goal[0]), int(goal[1]),
+                                   N, m, n, cells[:, 0], cells[:, 1], P)
+    if enabled and ok == 1:
+        return True, ""
+    why = _why_not(P, [tuple(c) for c in cells.tolist()], start, goal)
+    return False, why or "the extracted checker rejects it"
+
+
+def _why_not(P: np.ndarray, path, start, goal) -> str:
+    """Why `path` is no plan (the first defect), or "" if none is found: for messages only."""
     N, m, n = P.shape
     if len(path) < max(1, N):
-        return False, f"path has {len(path)} elements, fewer than N = {N} (early arrival)"
+        return f"path has {len(path)} elements, fewer than N = {N} (early arrival)"
     if tuple(path[0]) != tuple(start) or tuple(path[-1]) != tuple(goal):
-        return False, "path does not start at the start cell or end at the goal cell"
+        return "path does not start at the start cell or end at the goal cell"
     for k, (i, j) in enumerate(path):
         if not (0 <= i < m and 0 <= j < n):
-            return False, f"element {k} = {(i, j)} is off the grid"
+            return f"element {k} = {(i, j)} is off the grid"
         if P[min(k, N - 1), i, j] != 0:
-            return False, f"element {k} = {(i, j)} is blocked in layer {min(k, N - 1)}"
+            return f"element {k} = {(i, j)} is blocked in layer {min(k, N - 1)}"
         if k + 1 < len(path):
             ni, nj = path[k + 1]
             if abs(ni - i) > 1 or abs(nj - j) > 1:
-                return False, f"elements {k} and {k + 1} are not neighbours"
-    return True, ""
+                return f"elements {k} and {k + 1} are not neighbours"
+    return ""
 
 
 def costs(path) -> tuple[int, int]:

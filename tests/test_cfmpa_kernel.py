@@ -230,7 +230,10 @@ def test_planner_refuses_bad_input():
 
 
 def test_kernel_imports_numpy_only():
-    code = ("import sys, certiloop.kernel.dualarm, certiloop.kernel.dualarm_planner; "
+    """Also after a database is built and planned (the extracted code's hash pins read the
+    model library, which must not pull in a prover)."""
+    code = ("import sys, certiloop.kernel.dualarm as d, certiloop.kernel.dualarm_planner as p; "
+            "p.plan(d.builtdr(d.reference_scene(0.4)), (0, 0), (1, 1)); "
             "heavy = ('z3', 'sympy', 'hypothesis', 'scipy', 'cvxpy', 'shapely'); "
             "print([m for m in heavy if m in sys.modules])")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
@@ -292,3 +295,85 @@ def test_every_plan_passes_the_proved_model():
             bad = [*got.path[:-1], (got.path[-1][0], -1)]
             assert not _interpret_check_path(P, bad, start, goal)
     assert planned >= 20
+
+
+# --------------------------------------------------------------------------- the extracted kernels
+
+
+def test_shipped_kernels_are_fresh_extractions_of_their_models():
+    """kernel/cfmpa_builtdr.py and kernel/cfmpa_check.py are byte-for-byte what `certiloop
+    extract` makes of the proved models today, and carry the models' current hashes."""
+    from certiloop.kernel import cfmpa_builtdr, cfmpa_check
+    from certiloop.kernel.extract import SHIPPED, shipped_drift
+    from certiloop.models import library
+
+    for name, module in (("cfmpa.builtdr", cfmpa_builtdr), ("cfmpa.check_path", cfmpa_check)):
+        assert name in SHIPPED
+        assert shipped_drift(name) == ""
+        assert (module.MODEL, module.MODEL_HASH) == (name, library.get(name).content_hash)
+
+
+def test_a_changed_model_is_refused_at_run_time(monkeypatch):
+    import certiloop.kernel.dualarm_pins as pins
+    from certiloop.kernel import cfmpa_check
+
+    monkeypatch.setattr(cfmpa_check, "MODEL_HASH", "0000000000000000")
+    monkeypatch.setattr(pins, "_checked", False)
+    with pytest.raises(RuntimeError, match="certiloop extract cfmpa.check_path"):
+        check_path(np.zeros((1, 2, 2), np.uint8), [(0, 0)], (0, 0), (0, 0))
+
+
+def _interpret_builtdr(overlap: np.ndarray) -> np.ndarray:
+    """P after running the proved model `cfmpa.builtdr` in the interpreter on this overlap array."""
+    from certiloop.falsify.choosers import FirstEnabled
+    from certiloop.falsify.evaluate import Table
+    from certiloop.falsify.interpreter import Interpreter
+    from certiloop.models import library
+
+    N, m, n = overlap.shape
+    cells = {key: bool(overlap[key]) for key in itertools.product(range(N), range(m), range(n))}
+    state = {"N": N, "m": m, "n": n, "overlap": Table(cells, default=False), "P": Table({}, default=7)}
+    run = Interpreter(library.get("cfmpa.builtdr"), exact=True).run(FirstEnabled(), initial=state)
+    table = run.final["P"]
+    return np.array([table.read(key) for key in itertools.product(range(N), range(m), range(n))]
+                    ).reshape(N, m, n) if overlap.size else np.zeros(overlap.shape, int)
+
+
+@settings(max_examples=200)
+@given(st.integers(0, 4), st.integers(0, 4), st.integers(0, 4), st.floats(0, 1), st.integers(0, 2**32 - 1))
+def test_extracted_builtdr_agrees_with_the_interpreter(N, m, n, density, seed):
+    """The shipped builtDR and the interpreter running `cfmpa.builtdr` leave the same database
+    on random overlap arrays (including empty grids), and it is the overlap predicate."""
+    from certiloop.kernel.cfmpa_builtdr import controller
+
+    overlap = np.random.default_rng(seed).uniform(size=(N, m, n)) < density
+    P, enabled = controller(N, m, n, overlap)
+    assert enabled
+    assert np.array_equal(P, _interpret_builtdr(overlap))
+    assert np.array_equal(P, overlap.astype(int))  # independent of both: Theorem 1's post
+
+
+def test_reference_database_is_filled_in_every_cell(r1_coarse):
+    """dualarm.builtdr's database (filled by the extracted code) is 0/1 everywhere, with both
+    values present on the reference scene."""
+    P = r1_coarse[1]
+    assert P.dtype == np.uint8 and set(np.unique(P)) <= {0, 1}
+    assert 0 < P.sum() < P.size
+
+
+@settings(max_examples=200)
+@given(st.integers(1, 3), st.integers(1, 3), st.integers(1, 3), st.floats(0, 0.5), st.integers(0, 2**32 - 1),
+       st.integers(0, 6))
+def test_reasons_agree_with_the_extracted_verdict(N, m, n, density, seed, length):
+    """The hand-written reason finder says "" exactly when the extracted checker accepts: a
+    rejection always comes with its real defect, an acceptance never hides one."""
+    from certiloop.kernel.dualarm_planner import _why_not
+
+    rng = np.random.default_rng(seed)
+    P = (rng.uniform(size=(N, m, n)) < density).astype(np.uint8)
+    path = [(int(rng.integers(-1, m + 1)), int(rng.integers(-1, n + 1))) for _ in range(length)]
+    start = path[0] if path and rng.uniform() < 0.8 else (0, 0)
+    goal = path[-1] if path and rng.uniform() < 0.8 else (0, 0)
+    ok, why = check_path(P, path, start, goal)
+    assert ok == (_why_not(P, path, start, goal) == "")
+    assert ok == (why == "")

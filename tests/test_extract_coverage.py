@@ -28,7 +28,6 @@ REFUSED = {
     # seed 002 lemmas whose program only draws witnesses (no result) or repeats a motion step
     "cfmpa.hull_in_halfplane": "repeats any number of times",  # hull points drawn in a loop
     "cfmpa.sat_separates": "repeats any number of times",
-    "cfmpa.joint_box_monotone": "computes nothing",
     "cfmpa.property3": "computes nothing",
     "cfmpa.property4": "computes nothing",
     "cfmpa.searchoptpath": "inside a choice",  # `Li := *` (the search's result) drawn in a choice
@@ -39,7 +38,8 @@ REFUSED = {
 EXTRACTS = [*dict.fromkeys([*CHECKED_IN_TEST_EXTRACT, "rcm.nullspace", "rcm.decoupling", "rcm.damping_bounds",
             "rcm.barrier_continuous", "rcm.axial_guard", "raven.deviation_stop", "raven.deviation_stop_3d",
             "raven.haptic_force", "cfmpa.builtdr_inclusive", "cfmpa.property8", "cfmpa.halfspace_convex",
-            "cfmpa.arc_in_triangle", "cfmpa.check_path", "cfmpa.segment_modified_full_speed"])]
+            "cfmpa.arc_in_triangle", "cfmpa.check_path", "cfmpa.segment_modified_full_speed",
+            "cfmpa.joint_box_monotone"])]
 
 rng = np.random.default_rng(19)
 

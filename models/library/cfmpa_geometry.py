@@ -164,13 +164,18 @@ def arc_in_triangle() -> Theorem:
 
 def joint_box_monotone() -> Theorem:
     """§IV.A's modified joint interval [θ, θ + σ ω Δt] (ends ordered) is inside the original
-    [θ - ω Δt, θ + ω Δt] for σ = ±1: so S' ⊆ S, and P' <= P cell by cell (Property 8b)."""
-    th, w, dt, sg, x = Reals("th w dt sg x")
+    [θ - ω Δt, θ + ω Δt] for σ = ±1: so S' ⊆ S, and P' <= P cell by cell (Property 8b).
+
+    A point of the modified interval is written θ + σ u ω Δt for a fraction u in [0, 1] (every
+    point, as ω Δt >= 0): the same set as `x := *; ?0 <= σ(x - θ) <= ω Δt`, but the falsifier
+    meets the assumption on u by repair and the equation pins x, where the test after an open
+    x blocked most runs."""
+    th, w, dt, sg, x, u = Reals("th w dt sg x u")
     return Theorem(
         name="cfmpa.joint_box_monotone",
-        assumptions=And(w >= 0, dt > 0, Or(sg == 1, sg == -1)),
-        program=seq(havoc(x), test(And(sg * (x - th) >= 0, sg * (x - th) <= w * dt))),
+        assumptions=And(w >= 0, dt > 0, Or(sg == 1, sg == -1), 0 <= u, u <= 1),
+        program=seq(havoc(x), test(x == th + sg * u * w * dt)),
         guarantee=And(th - w * dt <= x, x <= th + w * dt),
-        constants=(th, w, dt, sg),
+        constants=(th, w, dt, sg, u),
         description="the modified joint interval lies in the original one, both directions",
     )

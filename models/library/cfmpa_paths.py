@@ -108,12 +108,16 @@ def property3_printed() -> Theorem:
 
 def property3() -> Theorem:
     """Properties 2 and 3 under the repaired Definition 4: the path starts and ends where it
-    should, and every element k < N is free in layer k."""
+    should, and every element k < N is free in layer k.
+
+    kk is any integer and the range is the guarantee's premise ([kk := *](0 <= kk < min(len, N)
+    -> free), the same theorem as `kk := *; ?0 <= kk < min(len, N)` followed by free, with
+    Property 2 outside it): a test after the havoc would block most of the falsifier's runs."""
     return Theorem(
         name="cfmpa.property3",
         assumptions=And(_dims(), is_path_fixed()),
-        program=_pick_element(kk < N),
-        guarantee=And(ends(), P[kk][Li[kk]][Lj[kk]] == 0),
+        program=havoc(kk),
+        guarantee=And(ends(), Implies(And(0 <= kk, kk < ln, kk < N), P[kk][Li[kk]][Lj[kk]] == 0)),
         constants=(N, m, n, ln, si, sj, gi, gj),
         description="Properties 2-3 under the repaired Def 4: ends right, elements k<N free in layer k",
     )
