@@ -223,7 +223,7 @@ class RcmAdmittance:
 
 def _clip_wrench(F: np.ndarray) -> np.ndarray:
     f, t = F[:3], F[3:]
-    nf, nt = np.linalg.norm(f), np.linalg.norm(t)
+    nf, nt = math.hypot(*f), math.hypot(*t)             # hypot: no overflow for huge readings
     if nf > FORCE_RANGE:
         f = f * (FORCE_RANGE / nf)
     if nt > TORQUE_RANGE:
