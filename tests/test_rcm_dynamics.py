@@ -190,6 +190,37 @@ def test_fig8_rcm_error_is_about_a_micrometre_at_4ms():
     assert np.linalg.norm(c.q - rcm.Q_ANCHOR) > 0.05          # it really moved
 
 
+def test_fig8_error_shrinks_with_the_period():
+    """The backward-difference error is O(dt): at 1 ms the worst ||x_c|| over the same 2 s is smaller."""
+    worst = {}
+    for dt in (0.004, 0.001):
+        c = demo_controller(points=100, gap=0.05, dt=dt)
+        xs = []
+        for i in range(int(round(2.0 / dt))):
+            assert c.step([2.0 * math.sin(3 * i * dt), 1.0, -1.0, 0.1, 0.0, 0.0]).ok
+            xs.append(np.linalg.norm(rcm.rcm_error(c.q, P_C, TOOL_LENGTH)))
+        worst[dt] = max(xs)
+    assert worst[0.001] < 0.5 * worst[0.004]
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_guard_sweep_bound_covers_every_tool_point(seed):
+    """sum_j |dq_j| L_j (the guard's lever bound) is at least how far any tool point moves along a
+    linearly interpolated joint step, measured here on a fine path."""
+    rng = np.random.default_rng(seed)
+    c = _no_cloud(rcm.Q_ANCHOR)
+    for _ in range(20):
+        q = rcm.Q_ANCHOR + rng.uniform(-0.5, 0.5, 7)
+        dq = rng.normal(size=7) * rng.uniform(1e-4, 0.05)
+        bound = np.abs(dq) @ c.lever
+        start = rcm.lwr4_forward(q)
+        for sigma in (0.0, 0.5, 1.0):
+            p0 = start[:3, 3] + sigma * TOOL_LENGTH * start[:3, 2]
+            for s in np.linspace(0, 1, 21)[1:]:
+                T = rcm.lwr4_forward(q + s * dq)
+                assert np.linalg.norm(T[:3, 3] + sigma * TOOL_LENGTH * T[:3, 2] - p0) <= bound + 1e-15
+
+
 PUSHES = [(0.03, 12.0), (0.015, 8.0), (0.015, 30.0), (0.03, 30.0)]
 
 
