@@ -28,6 +28,7 @@ from certiloop.kernel.rcm_cloud import CloudBarrier
 FORCE_RANGE, TORQUE_RANGE = 240.0, 4.0
 JOINT_LIMITS = np.radians([170, 120, 170, 120, 170, 120, 170])
 SIGMA_FLOOR = 1e-3          # smallest singular value of J_t accepted
+TRACKING_TOL = 5e-3         # rad: the paper's "faithful tracking" premise, checked when q is measured
 
 
 @dataclass(frozen=True)
@@ -154,13 +155,22 @@ class RcmAdmittance:
         return StepResult(self.q.copy(), self.qdot.copy(), xc, gap if math.isfinite(gap) else 0.0,
                           0.0, False, reason)
 
-    def step(self, wrench=None) -> StepResult:
+    def step(self, wrench=None, q_measured=None) -> StepResult:
+        """One period from the human wrench (default: `self.wrench`). With `q_measured`, a robot
+        more than TRACKING_TOL from the last q_d (the proofs assume it tracks) gives a hold."""
         try:
             F_h = np.asarray(self.wrench if wrench is None else wrench, dtype=float).reshape(6)
         except (TypeError, ValueError):
             return self._hold("malformed human wrench (need 6 numbers)")
         if not np.all(np.isfinite(F_h)):
             return self._hold("non-finite human wrench")
+        if q_measured is not None:
+            try:
+                q_msr = np.asarray(q_measured, dtype=float).reshape(7)
+            except (TypeError, ValueError):
+                return self._hold("malformed measured joints (need 7 numbers)")
+            if not np.max(np.abs(q_msr - self.q)) <= TRACKING_TOL:      # NaN fails this too
+                return self._hold("tracking error: the robot is not following q_d")
         F_h = _clip_wrench(F_h)
         g, dt = self.gains, self.dt
         m = mapping(self.q, self.p_c, self.tool_length)

@@ -309,6 +309,16 @@ def test_bad_input_gives_clear_errors_or_a_hold():
     assert not r.ok and "malformed" in r.reason
 
 
+def test_a_robot_that_does_not_track_gives_a_hold():
+    c = demo_controller(points=10)
+    assert c.step([0, 0, -2.0, 0, 0, 0], q_measured=c.q + 1e-3).ok
+    for bad in (c.q + np.array([0, 0, 0.02, 0, 0, 0, 0]), np.full(7, math.nan)):
+        q0 = c.q.copy()
+        r = c.step([0, 0, -2.0, 0, 0, 0], q_measured=bad)
+        assert not r.ok and "tracking" in r.reason and np.array_equal(r.q, q0) and not r.qdot.any()
+    assert "malformed" in c.step(q_measured=[1, 2]).reason
+
+
 def test_demo_controller_is_exported_from_rcm_and_step_is_one_period():
     c = rcm.demo_controller(points=100)
     assert isinstance(c, rcm.RcmAdmittance) and c.dt == 0.004 and len(c.barrier.points) == 100
