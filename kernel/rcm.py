@@ -19,6 +19,7 @@ velocity for at most one period, every gap stays >= margin.
 
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass
 
@@ -205,3 +206,17 @@ def guarded_axial_step(gap: float, w: float, push: float, margin: float,
     d = damping_axial(cmd, f)
     w_next = cmd + h * (push - f - d * cmd)
     return gap - h * cmd, w_next if math.isfinite(w_next) else 0.0
+
+
+# --------------------------------------------------------------------------- the full controller
+
+_LAZY = {"demo_controller": "certiloop.kernel.rcm_demo", "RcmAdmittance": "certiloop.kernel.rcm_dynamics"}
+
+
+def __getattr__(name: str):
+    """`rcm.demo_controller` and `rcm.RcmAdmittance` (the 7-DOF target dynamics, kernel/rcm_dynamics.py),
+    loaded on first use: they build on this module and use scipy's KD-tree, while the guard above
+    stays numpy-only for importers that need just it."""
+    if name in _LAZY:
+        return getattr(importlib.import_module(_LAZY[name]), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
