@@ -98,6 +98,15 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
         size = next(n for n in sizes)  # one index sort: checked by c_family
         body.append(f"    for (size_t cl_i = 0; cl_i < {size}; cl_i++)")
         body.append(f"        if (!isfinite({fam}[cl_i])) goto blocked;")
+    if reals or real_families:  # the filter's static bounds need them (see cl_static)
+        body.append("    if (!careful) { " + c_comment("inputs 0 or in [2^-48, 2^48], else the careful pass"))
+        if reals:
+            body.append(f"        if (!({' && '.join(f'cl_in_range({v})' for v in reals)})) return -2;")
+        for fam in real_families:
+            size = next(n for n in sizes)
+            body.append(f"        for (size_t cl_i = 0; cl_i < {size}; cl_i++)")
+            body.append(f"            if (!cl_in_range({fam}[cl_i])) return -2;")
+        body.append("    }")
     for v, s in params.items():
         if s == REAL:
             body.append(f"    cl_real cl_{v} = cl_exact({v});")
