@@ -237,6 +237,33 @@ def test_ctrl2_same_gain_as_the_python_kernel(folder, runs):
     assert undecided_in_scenes == 0, "C left a scene inside the assumptions undecided"
 
 
+@pytest.mark.parametrize("scale", [2.0 ** -47, 2.0 ** -20, 2.0 ** 20, 2.0 ** 47])
+def test_ctrl2_static_filter_at_the_edges_of_its_range(folder, scale):
+    """Scenes scaled so that inputs sit near the static filter's range [2^-48, 2^48] (tools on
+    planes, parallel forces, products of degree up to 12 near underflow or overflow): wherever
+    C decides, the decision and the gain are the exact model's (gain rounded down)."""
+    c = kernel("sbs.ctrl2", folder)
+    exact = python("sbs.ctrl2")["_exact"]
+    rng = np.random.default_rng(int(np.log2(scale)) + 100)
+    decided = 0
+    for _ in range(150):
+        p, f, fp, points, normals, G, D, e = _ctrl2_scene(rng)
+        scene = (p * scale, f * scale, fp, points * scale, normals, G, D * scale, e)
+        args = _ctrl2_args(scene)
+        gain, enabled = c(*args)
+        if c.undecided:
+            continue
+        decided += 1
+        rational = [np.array([Fraction(float(y)) for y in a], dtype=object) if isinstance(a, np.ndarray)
+                    else Fraction(float(a)) for a in args]
+        k, real_enabled = exact(*rational)
+        assert enabled == real_enabled, (scale, args)
+        if enabled:
+            assert Fraction(gain) <= k and k - Fraction(gain) <= TIGHT * abs(k) + Fraction(2) ** -1060, \
+                (scale, args, gain, k)
+    assert decided > 100
+
+
 @pytest.mark.parametrize("name", models([m for m in C_MODELS if m != "sbs.ctrl2"]))
 def test_same_as_the_python_kernel_on_random_states(name, folder):
     c, py = kernel(name, folder), python(name)["controller"]
