@@ -74,6 +74,34 @@ CL_INLINE cl_real cl_static(double v, double m, double k, double d, int zero)
     return r;
 }
 
+/* A value merged from a choice's branches (each static or dynamic, each with its own k and
+   d) as ONE static shape, k = CL_WIDE_K and d = CL_WIDE_D, so that the code after the choice
+   folds like the code before it. Sound because the static rules need only |x| <= m and
+   |v - x| <= gamma_k m, and the degree bound m >= 2^(-48 d): m is raised to the largest of a
+   bound on |x|, e/(k u) for the value's error bound e, and 2^(-48 d). The exact flag stays
+   (an exact 1 stays exact). The careful pass keeps the value as it is. */
+#define CL_WIDE_K 32.0
+#define CL_WIDE_D 4.0
+CL_INLINE double cl_bound(cl_real a);
+CL_INLINE cl_real cl_widen(cl_real x, int careful)
+{
+    double e, m;
+    if (careful)
+        return x;
+    e = cl_bound(x);
+    if (!(e < INFINITY) || !(fabs(x.v) < INFINITY)) {
+        m = INFINITY;
+    } else {
+        m = (x.k >= 0 ? x.m : fabs(x.v) + e) * CL_INFL;  /* >= |x| */
+        if (e * (2.0 / (CL_WIDE_K * CL_U)) * CL_INFL > m)
+            m = e * (2.0 / (CL_WIDE_K * CL_U)) * CL_INFL; /* gamma_K m >= K u m >= e */
+        if (m < 0x1p-192) /* 2^(-48 CL_WIDE_D) */
+            m = 0x1p-192;
+    }
+    x.e = 0.0; x.m = m; x.k = CL_WIDE_K; x.d = CL_WIDE_D;
+    return x;
+}
+
 /* the bound on |v - x| of any value; infinite for a static value that overflowed (m may not
    have: only a finite v is within k U m of x) */
 CL_INLINE double cl_bound(cl_real a)
@@ -287,6 +315,7 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
         cl_real cl_fnp = cl_add(cl_add(cl_mul(cl_fxp, cl_exact(nx[i]), careful), cl_mul(cl_fyp, cl_exact(ny[i]), careful), careful), cl_mul(cl_fzp, cl_exact(nz[i]), careful), careful);
         cl_real cl_fn = cl_add(cl_add(cl_mul(cl_fx, cl_exact(nx[i]), careful), cl_mul(cl_fy, cl_exact(ny[i]), careful), careful), cl_mul(cl_fz, cl_exact(nz[i]), careful), careful);
         /* choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0) */
+        cl_real cl_xtr = cl_approx(NAN, NAN, careful);
         if ((cl_t = cl_ge(cl_d0, cl_D)) != 0) { /* ff1 free (d0 >= D) */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_const(1.0);
@@ -295,18 +324,22 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
             cl_u = cl_const(1.0);
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_gt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0) { /* ff3 slow, turns early */
             if (cl_t < 0) CL_UNSURE;
+            cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
             cl_u = cl_const(1.0);
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_gt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff4 slow, turns late */
             if (cl_t < 0) CL_UNSURE;
+            cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
             cl_u = cl_div(cl_d0, cl_D, careful);
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_eq(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff5 slow, fnp=0 fn<=0 */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_div(cl_d0, cl_D, careful);
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_lt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff6 slow, reverses early */
             if (cl_t < 0) CL_UNSURE;
+            cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
             cl_u = cl_div(cl_d0, cl_D, careful);
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_lt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0) { /* ff7 slow, reverses late */
             if (cl_t < 0) CL_UNSURE;
+            cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
             cl_u = cl_const(1.0);
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_eq(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0) { /* ff8 slow, fnp=0 fn>=0 */
             if (cl_t < 0) CL_UNSURE;
@@ -320,34 +353,46 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
         } else { /* no alternative is enabled: the model has no run */
             goto blocked;
         }
+        cl_u = cl_widen(cl_u, careful);
+        cl_xtr = cl_widen(cl_xtr, careful);
         cl_real cl_dist = cl_add(cl_d0, cl_mul(cl_mul(cl_G, cl_u, careful), cl_add(cl_mul(cl_fn, cl_e, careful), cl_mul(cl_mul(cl_fnp, cl_mul(cl_e, cl_e, careful), careful), cl_const(0.5), careful), careful), careful), careful);
         cl_real cl_disc = cl_add(cl_mul(cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), careful), cl_neg(cl_mul(cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_G, careful), cl_u, careful), cl_fnp, careful), cl_d0, careful)), careful);
         /* choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away */
+        cl_real cl_tmp = cl_approx(NAN, NAN, careful);
         cl_real cl_kt = cl_approx(NAN, NAN, careful);
         if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sa fnp<=0, clear */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
             cl_kt = cl_u;
         } else if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* se fnp<=0, would cross */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
             cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
         } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sb turns back, disc<=0 */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
             cl_kt = cl_u;
         } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), cl_exact(0.0)))) != 0) { /* sf turns within step */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful);
             cl_kt = cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_fnp, careful), cl_d0, careful), cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful), careful);
         } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* sg still inward, would cross */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
             cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
         } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sc still inward, clear */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
             cl_kt = cl_u;
         } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sd away */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
             cl_kt = cl_u;
         } else { /* no alternative is enabled: the model has no run */
             goto blocked;
         }
+        cl_tmp = cl_widen(cl_tmp, careful);
+        cl_kt = cl_widen(cl_kt, careful);
         { cl_real cl_v = cl_kt; /* k := min(k, kt), rounded down */
             if (!cl_tight(cl_v)) CL_UNSURE;
             if (cl_lower_below(cl_v, cl_k.v)) cl_k = cl_exact(cl_lower(cl_v)); }

@@ -109,6 +109,34 @@ CL_INLINE cl_real cl_static(double v, double m, double k, double d, int zero)
     return r;
 }
 
+/* A value merged from a choice's branches (each static or dynamic, each with its own k and
+   d) as ONE static shape, k = CL_WIDE_K and d = CL_WIDE_D, so that the code after the choice
+   folds like the code before it. Sound because the static rules need only |x| <= m and
+   |v - x| <= gamma_k m, and the degree bound m >= 2^(-48 d): m is raised to the largest of a
+   bound on |x|, e/(k u) for the value's error bound e, and 2^(-48 d). The exact flag stays
+   (an exact 1 stays exact). The careful pass keeps the value as it is. */
+#define CL_WIDE_K 32.0
+#define CL_WIDE_D 4.0
+CL_INLINE double cl_bound(cl_real a);
+CL_INLINE cl_real cl_widen(cl_real x, int careful)
+{
+    double e, m;
+    if (careful)
+        return x;
+    e = cl_bound(x);
+    if (!(e < INFINITY) || !(fabs(x.v) < INFINITY)) {
+        m = INFINITY;
+    } else {
+        m = (x.k >= 0 ? x.m : fabs(x.v) + e) * CL_INFL;  /* >= |x| */
+        if (e * (2.0 / (CL_WIDE_K * CL_U)) * CL_INFL > m)
+            m = e * (2.0 / (CL_WIDE_K * CL_U)) * CL_INFL; /* gamma_K m >= K u m >= e */
+        if (m < 0x1p-192) /* 2^(-48 CL_WIDE_D) */
+            m = 0x1p-192;
+    }
+    x.e = 0.0; x.m = m; x.k = CL_WIDE_K; x.d = CL_WIDE_D;
+    return x;
+}
+
 /* the bound on |v - x| of any value; infinite for a static value that overflowed (m may not
    have: only a finite v is within k U m of x) */
 CL_INLINE double cl_bound(cl_real a)

@@ -165,6 +165,10 @@ class _CFamily:
         self.line(f"}} else {{ {c_comment('no alternative is enabled: the model has no run')}")
         self.line(f"    {BLOCK}")
         self.line("}")
+        for v in changed:  # one static shape whatever branch set it: the code after folds (cl_widen)
+            sort = _sort_of(self.theorem, v, REAL)
+            if (sort.range if sort.is_array else sort) == REAL:
+                self.line(f"cl_{v} = cl_widen(cl_{v}, careful);")
 
     def alternative(self, p: Program) -> tuple[list[str], dict[str, str]]:
         mask: list[str] = []
