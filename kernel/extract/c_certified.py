@@ -9,8 +9,9 @@ Two passes, as the Python has a float pass and an exact pass:
 * the FILTER (careful = 0), semi-static: on inputs 0 or of magnitude in [2^-48, 2^48], a
   value of a polynomial term (and of one divided by an input) is bounded by k·U·m -- k a count
   of roundings the compiler folds, m the term evaluated on magnitudes, one extra operation per
-  operation (proof sketch at `cl_static`); values past a division by a computed value, or
-  merged from a choice's branches, carry the running bound of `filtered.add/sub/mul/div`.
+  operation (proof sketch at `cl_static`); a value merged from a choice's branches is
+  widened to one static shape (`cl_widen`); values past a division by a computed value carry
+  the running bound of `filtered.add/sub/mul/div`.
   Guards are conjunctions evaluated left to right up to the first that fails (`cl_guard`).
   Its decisions are the reals' (so the Python filter's wherever both decide), its outputs
   floats at most the real values, not necessarily the Python's floats;
