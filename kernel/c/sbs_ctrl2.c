@@ -37,7 +37,7 @@ typedef struct { double v, e, m, k, d; int exact; } cl_real; /* d: a static valu
 CL_INLINE int cl_in_range(double x)
 {
     double a = fabs(x);
-    return a == 0.0 || (a >= CL_LEAF_MIN && a <= CL_LEAF_MAX);
+    return (a == 0.0) | ((a >= CL_LEAF_MIN) & (a <= CL_LEAF_MAX)); /* no branch: vectorised loops */
 }
 
 /* an input (the filter has checked its range), or a constant in range */
@@ -266,34 +266,35 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
 {
     int cl_t = 0;
     (void)cl_t;
-    /* inputs are finite numbers, or outside the model's domain: no run */
-    if (!(isfinite(px) && isfinite(py) && isfinite(pz) && isfinite(fxp) && isfinite(fyp) && isfinite(fzp) && isfinite(fx) && isfinite(fy) && isfinite(fz) && isfinite(D) && isfinite(e) && isfinite(G))) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(rx[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(nx[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(ry[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(ny[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(rz[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(nz[cl_i])) goto blocked;
     if (!careful) { /* inputs 0 or in [2^-48, 2^48], else the careful pass */
-        if (!(cl_in_range(px) && cl_in_range(py) && cl_in_range(pz) && cl_in_range(fxp) && cl_in_range(fyp) && cl_in_range(fzp) && cl_in_range(fx) && cl_in_range(fy) && cl_in_range(fz) && cl_in_range(D) && cl_in_range(e) && cl_in_range(G))) return -2;
+        int cl_r = cl_in_range(px) & cl_in_range(py) & cl_in_range(pz) & cl_in_range(fxp) & cl_in_range(fyp) & cl_in_range(fzp) & cl_in_range(fx) & cl_in_range(fy) & cl_in_range(fz) & cl_in_range(D) & cl_in_range(e) & cl_in_range(G);
         for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            if (!cl_in_range(rx[cl_i])) return -2;
+            cl_r &= cl_in_range(rx[cl_i]);
         for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            if (!cl_in_range(nx[cl_i])) return -2;
+            cl_r &= cl_in_range(nx[cl_i]);
         for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            if (!cl_in_range(ry[cl_i])) return -2;
+            cl_r &= cl_in_range(ry[cl_i]);
         for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            if (!cl_in_range(ny[cl_i])) return -2;
+            cl_r &= cl_in_range(ny[cl_i]);
         for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            if (!cl_in_range(rz[cl_i])) return -2;
+            cl_r &= cl_in_range(rz[cl_i]);
         for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            if (!cl_in_range(nz[cl_i])) return -2;
+            cl_r &= cl_in_range(nz[cl_i]);
+        if (!cl_r) return -2;
+    } else { /* inputs finite, or outside the model's domain: no run */
+        if (!(isfinite(px) && isfinite(py) && isfinite(pz) && isfinite(fxp) && isfinite(fyp) && isfinite(fzp) && isfinite(fx) && isfinite(fy) && isfinite(fz) && isfinite(D) && isfinite(e) && isfinite(G))) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(rx[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(nx[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(ry[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(ny[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(rz[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(nz[cl_i])) goto blocked;
     }
     cl_real cl_px = cl_exact(px);
     cl_real cl_py = cl_exact(py);

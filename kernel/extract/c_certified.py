@@ -73,7 +73,7 @@ typedef struct { double v, e, m, k, d; int exact; } cl_real; /* d: a static valu
 CL_INLINE int cl_in_range(double x)
 {
     double a = fabs(x);
-    return a == 0.0 || (a >= CL_LEAF_MIN && a <= CL_LEAF_MAX);
+    return (a == 0.0) | ((a >= CL_LEAF_MIN) & (a <= CL_LEAF_MAX)); /* no branch: vectorised loops */
 }
 
 /* an input (the filter has checked its range), or a constant in range */
