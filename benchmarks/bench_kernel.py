@@ -7,13 +7,17 @@
 --compare measures `step` of this install and of another one (its python, e.g. a virtualenv
 with commit a42bfa6 installed) side by side: interleaved rounds, each a fresh worker process
 per install (`--worker`), the same planes and states; medians over rounds of per-round
-medians, written to results/kernel_compare.json.
+medians, written to results/kernel_compare.json. This install's step runs on its default back
+end (the compiled C when a compiler is there, see certiloop.kernel.native); with
+CERTILOOP_KERNEL=python in the environment it runs the numpy path, written to
+results/kernel_compare_numpy.json.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import statistics
 import subprocess
 import sys
@@ -42,15 +46,20 @@ def median_us(fn, calls: int) -> float:
 
 
 def measure(m: int, rng, calls: int) -> dict:
-    fixture = VirtualFixture(planes(m, rng), gain=1.0, buffer=0.5, period=0.0182,
+    planes_ = planes(m, rng)
+    fixture = VirtualFixture(planes_, gain=1.0, buffer=0.5, period=0.0182,
                              position_tolerance=np.inf)  # the same p every call: no motion check
     p, f, fp = np.zeros(3), np.array([1.0, -2.0, 0.5]), np.array([0.1, 0.0, -0.3])
     n, r = fixture._normals, fixture._points
     args = (*p, *fp, *f, 0.5, 0.0182, 1.0, r[:, 0], n[:, 0], r[:, 1], n[:, 1], r[:, 2], n[:, 2])
     step = median_us(lambda: fixture.step(p, f, fp), calls)
+    numpy_fixture = VirtualFixture(planes_, gain=1.0, buffer=0.5, period=0.0182, position_tolerance=np.inf,
+                                   backend="python")
+    numpy_step = median_us(lambda: numpy_fixture.step(p, f, fp), calls)
     bare = median_us(lambda: ctrl2.controller(*args), calls)
-    return {"boundaries": m, "step_median_us": round(step, 1), "controller_median_us": round(bare, 1),
-            "monitor_and_checks_us": round(step - bare, 1)}
+    return {"boundaries": m, "backend": fixture.backend, "step_median_us": round(step, 1),
+            "numpy_step_median_us": round(numpy_step, 1), "numpy_controller_median_us": round(bare, 1),
+            "numpy_monitor_and_checks_us": round(numpy_step - bare, 1)}
 
 
 SIZES = (1, 10, 100, 1000)
@@ -78,12 +87,14 @@ def compare(old_python: str, rounds: int, calls: int) -> None:
             done = subprocess.run(cmd, capture_output=True, text=True, check=True, cwd="/")
             runs[side].append({int(k): v for k, v in json.loads(done.stdout.splitlines()[-1]).items()})
     rows = []
+    numpy_only = os.environ.get("CERTILOOP_KERNEL", "").lower() == "python"
     for m in SIZES:
         old = statistics.median(r[m] for r in runs["old"])
         new = statistics.median(r[m] for r in runs["new"])
-        rows.append({"boundaries": m, "old_step_us": round(old, 1), "new_step_us": round(new, 1),
+        rows.append({"boundaries": m, "new_backend": "python" if numpy_only else "default",
+                     "old_step_us": round(old, 1), "new_step_us": round(new, 1),
                      "speedup": round(old / new, 2), "rounds": rounds, "calls": calls})
-    record("kernel_compare", rows)
+    record("kernel_compare_numpy" if numpy_only else "kernel_compare", rows)
 
 
 def main() -> None:

@@ -7,30 +7,50 @@ The gain comes from `ctrl2.py`, the code `certiloop extract sbs.ctrl2` generated
 proved model; a runtime monitor (monitor.py) checks inputs, command and measured motion
 and commands the safe fallback k = 0 whenever something is off. Never NaN, never an
 unchecked command. Imports numpy only.
+
+Two back ends run the same step. backend="c" (the default "auto" picks it when a C compiler
+is present, see native.py) calls kernel/c, the C the extractor generated from the same model
+(hash-checked) behind the C version of the monitor: microseconds per step. Any step the C
+does not pass -- a fallback, or a near-tie its floats cannot decide -- is run again by the
+numpy path (backend="python"), which decides near-ties exactly and gives the reason, so the
+C only ever adds speed: what it commands is a gain its own certified controller and monitor
+accepted, and everything else is the numpy kernel's answer.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Iterable, Sequence
+from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
-from certiloop.kernel import ctrl2, monitor
+from certiloop.kernel import ctrl2, monitor, native
 
 ROUNDING = 1e-12  # a negative k above -ROUNDING: a tool past a plane by rounding only
 
 
-@dataclass
 class Command:
-    k: float
-    velocity: np.ndarray
-    ok: bool = True  # False: the fallback was commanded
-    reason: str = ""  # why the fallback was commanded
-    distances: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """k, the velocity G k f, ok (False: the fallback was commanded), the reason of a
+    fallback, and the distances d0 to the planes (computed when first read: the compiled
+    step does not need them)."""
+
+    __slots__ = ("k", "velocity", "ok", "reason", "_distances")
+
+    def __init__(self, k: float, velocity: np.ndarray, ok: bool = True, reason: str = "",
+                 distances: np.ndarray | Callable[[], np.ndarray] | None = None) -> None:
+        self.k, self.velocity, self.ok, self.reason = k, velocity, ok, reason
+        self._distances = np.zeros(0) if distances is None else distances
+
+    @property
+    def distances(self) -> np.ndarray:
+        if callable(self._distances):
+            self._distances = self._distances()
+        return self._distances
 
     def __iter__(self):  # k, velocity = fixture.step(...)
         return iter((self.k, self.velocity))
+
+    def __repr__(self) -> str:
+        return f"Command(k={self.k!r}, velocity={self.velocity!r}, ok={self.ok!r}, reason={self.reason!r})"
 
 
 class VirtualFixture:
@@ -39,7 +59,9 @@ class VirtualFixture:
 
     def __init__(self, planes: Iterable[tuple[Sequence[float], Sequence[float]]] = (), *, gain: float,
                  buffer: float, period: float, check_model: bool = True,
-                 position_tolerance: float = 1e-6) -> None:
+                 position_tolerance: float = 1e-6, backend: str = "auto") -> None:
+        if backend not in ("auto", "c", "python"):
+            raise ValueError(f"backend must be 'auto', 'c' or 'python', got {backend!r}")
         self.gain, self.buffer, self.period = float(gain), float(buffer), float(period)
         self.position_tolerance = position_tolerance
         self._ids: list[int] = []
@@ -50,10 +72,24 @@ class VirtualFixture:
         self._position = None
         if check_model:
             _check_extracted()
+        self._native = None if backend == "python" else native.load(ctrl2.MODEL_HASH)
+        if backend == "c" and self._native is None:
+            raise ValueError(f"backend='c' is not available: {native.why_not() or 'model hash differs'}")
+        if self._native is not None:
+            self._memory, self._k = self._native.memory(), self._native.out()
+            self._inputs = np.zeros(9)  # p, f, fp as C reads them
+            self._input_ptrs = [self._native.doubles(self._inputs.ctypes.data + 24 * j) for j in range(3)]
+        self._memory_stale = False  # the numpy path ran last: copy its memory before calling C
+        self._columns()
         for point, normal in planes:
             self._append(point, normal)
 
     # ------------------------------------------------------------------ planes
+    @property
+    def backend(self) -> str:
+        """'c' or 'python': which step runs first."""
+        return "python" if self._native is None else "c"
+
     @property
     def planes(self) -> dict[int, tuple[np.ndarray, np.ndarray]]:
         return {i: (p.copy(), n.copy()) for i, p, n in zip(self._ids, self._points, self._normals)}
@@ -76,6 +112,7 @@ class VirtualFixture:
         keep = [j for j, i in enumerate(self._ids) if i != plane_id]
         self._ids = [self._ids[j] for j in keep]
         self._points, self._normals = self._points[keep], self._normals[keep]
+        self._columns()
 
     def _append(self, point, normal) -> int:
         pt, n = _vector(point, "plane point"), _unit(normal)
@@ -83,12 +120,58 @@ class VirtualFixture:
         self._normals = np.vstack([self._normals, n])
         self._ids.append(self._next_id)
         self._next_id += 1
+        self._columns()
         return self._ids[-1]
+
+    def _columns(self) -> None:
+        """The planes as C wants them: rx, ry, rz, nx, ny, nz, each contiguous."""
+        self._cols = [np.ascontiguousarray(a[:, j]) for a in (self._points, self._normals) for j in range(3)]
+        if self._native is not None:
+            self._col_ptrs = [self._native.doubles(c.ctypes.data) for c in self._cols]
 
     # ------------------------------------------------------------------ the control step
     def step(self, p, f, fp, dt: float | None = None) -> Command:
         """Gain and commanded velocity for tool position p, surgeon force f and its rate fp.
         dt: time since the previous step (default: the period ε) for the motion check."""
+        if self._native is not None:
+            command = self._step_c(p, f, fp, dt)
+            if command is not None:
+                return command
+        self._memory_stale = True  # whatever the numpy path keeps, C must start from it
+        return self._step_python(p, f, fp, dt)
+
+    def _step_c(self, p, f, fp, dt) -> Command | None:
+        """The compiled step; None where it did not pass (the numpy path then decides)."""
+        try:
+            p, f, fp = (np.asarray(x, dtype=float).reshape(-1) for x in (p, f, fp))
+        except (TypeError, ValueError):
+            return None
+        if p.shape != (3,) or f.shape != (3,) or fp.shape != (3,):
+            return None
+        inputs = self._inputs
+        inputs[0:3], inputs[3:6], inputs[6:9] = p, f, fp
+        if self._memory_stale:
+            self._sync_memory()
+        reason = self._native.step(*self._input_ptrs, *self._col_ptrs, len(self._ids), self.gain, self.buffer,
+                                   self.period, self.period if dt is None else dt, self.position_tolerance,
+                                   self._memory, self._k)
+        if reason != native.OK:
+            self._memory_stale = True  # C fell back; the numpy path's verdict and memory count
+            return None
+        k = self._k[0]
+        self._previous, self._position = (p, f, fp, k), p
+        r, n = self._points, self._normals
+        return Command(k, self.gain * k * f, True, "", lambda: np.einsum("ij,ij->i", p - r, n))
+
+    def _sync_memory(self) -> None:
+        m = self._memory
+        m.has_previous = self._previous is not None
+        if self._previous is not None:
+            p, f, fp, k = self._previous
+            m.p, m.f, m.fp, m.k = list(map(float, p)), list(map(float, f)), list(map(float, fp)), k
+        self._memory_stale = False
+
+    def _step_python(self, p, f, fp, dt) -> Command:
         try:
             p, f, fp = (np.asarray(x, dtype=float).reshape(-1) for x in (p, f, fp))
         except (TypeError, ValueError) as exc:

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from certiloop.falsify.choosers import FirstEnabled
 from certiloop.falsify.evaluate import Blocked, Table
 from certiloop.falsify.interpreter import Interpreter
-from certiloop.kernel import VirtualFixture, ctrl2
+from certiloop.kernel import VirtualFixture, ctrl2, native
 from certiloop.kernel.extract import ExtractError, controller, extract, shipped_drift
 from certiloop.models import library
 from certiloop.models.lang.terms import TRUE
@@ -23,6 +23,17 @@ CTRL2 = library.get("sbs.ctrl2")
 # gain rounded down, within a relative 2^-20 (usually a few ulps): the oracle is the model's
 # step run by the interpreter in exact rationals on the same inputs.
 REL, ABS = 1e-6, 1e-300
+
+
+@pytest.fixture(scope="module", autouse=True, params=["default", "python"])
+def kernel_backend(request):
+    """Every test here runs on both back ends of VirtualFixture.step: the default (the compiled
+    C, where it builds; see test_kernel_native) and the numpy path alone."""
+    with pytest.MonkeyPatch.context() as mp:
+        if request.param == "python":
+            mp.setenv("CERTILOOP_KERNEL", "python")
+            mp.setattr(native, "_state", {})
+        yield request.param
 
 
 def test_shipped_kernel_is_a_fresh_extraction_of_the_model():

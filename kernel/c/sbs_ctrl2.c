@@ -4,9 +4,14 @@
 
 #include "sbs_ctrl2.h"
 
-/* ---- certified arithmetic: a value v with a bound e on |v - x| for its real value x
-   (certiloop.kernel.extract.c_certified; the C counterpart of certiloop.kernel.filtered) ---- */
-typedef struct { double v, e; int exact; } cl_real;
+/* ---- certified arithmetic: a value v with a bound on |v - x| for its real value x
+   (certiloop.kernel.extract.c_certified; the C counterpart of certiloop.kernel.filtered) ----
+   A value is STATIC (k >= 0: |v - x| <= k U m, m the term evaluated on magnitudes) or
+   DYNAMIC (k < 0: |v - x| <= e, the running bound of filtered.py). Exact values are static
+   with k = 0, m = |v|. The filter keeps +, -, * and / by an exact value static: a count and a
+   magnitude per operation, which the compiler folds (k is a constant for every value that
+   does not come out of a choice), instead of a running bound. */
+typedef struct { double v, e, m, k, d; int exact; } cl_real; /* d: a static value's degree */
 
 #if defined(__GNUC__)
 #define CL_INLINE static inline __attribute__((always_inline)) /* a call per operation is 20x slower */
@@ -21,11 +26,88 @@ typedef struct { double v, e; int exact; } cl_real;
 #define CL_INFL (1.0 + 0x1p-40)       /* filtered.INFL */
 #define CL_TIGHT 0x1p-20              /* filtered.TIGHT */
 #define CL_EFT_MIN 0x1p-900           /* above this, a rounding residual is representable */
+#define CL_TINY 0x1p-1020             /* a static product's magnitude at least this: underflow is covered */
+#define CL_LEAF_MIN 0x1p-48           /* the filter's inputs: 0 or magnitudes in [2^-48, 2^48] ... */
+#define CL_LEAF_MAX 0x1p48
+#define CL_DEGREE_MAX 21.0            /* ... so a product of up to 21 of them is >= 2^-1008 > CL_TINY */
 /* a decision the floats cannot take: run the careful pass, else give up (return -1) */
 #define CL_UNSURE do { if (!careful) return -2; goto undecided; } while (0)
 #define CL_TEST(c) do { int cl_c = (c); if (cl_c < 0) CL_UNSURE; if (!cl_c) goto blocked; } while (0)
 
-CL_INLINE cl_real cl_exact(double x) { cl_real r; r.v = x; r.e = 0.0; r.exact = 1; return r; }
+CL_INLINE int cl_in_range(double x)
+{
+    double a = fabs(x);
+    return (a == 0.0) | ((a >= CL_LEAF_MIN) & (a <= CL_LEAF_MAX)); /* no branch: vectorised loops */
+}
+
+/* an input (the filter has checked its range), or a constant in range */
+CL_INLINE cl_real cl_exact(double x)
+{
+    cl_real r; r.v = x; r.e = 0.0; r.m = fabs(x); r.k = 0.0; r.d = 1.0; r.exact = 1; return r;
+}
+/* a model constant: degree 1 if in range, else one that fences every product it enters */
+CL_INLINE cl_real cl_const(double x)
+{
+    cl_real r = cl_exact(x);
+    r.d = cl_in_range(x) ? 1.0 : 1e9;
+    return r;
+}
+
+/* Static bounds (the filter only). Without underflow, a term evaluated in floats is its real
+   value with every monomial multiplied by at most d factors (1 + delta), |delta| <= u, d the
+   roundings on its path: |v - x| <= gamma_d m (Higham, Accuracy and Stability, 3.1), m the
+   real magnitude term. A product or quotient t whose computed magnitude is >= CL_TINY (or 0:
+   an exact zero factor, no rounding at all) underflows by at most 2^-1075 <= 2^-54 m(t) <= u
+   m(t), which reaches the root multiplied by t's cofactors: at most u m, counted as one more
+   rounding (k + 2 per product). k U m = 2 k u m covers gamma_k m and the rounding of m itself
+   (m_computed >= m (1 - u)^k). m(t) >= CL_TINY or 0 holds by construction where t's degree d
+   (leaves and 1/divisor count 1) is at most CL_DEGREE_MAX: the filter runs only on inputs 0 or
+   in [2^-48, 2^48] (else straight to the careful pass), so a non-zero monomial of m(t) is at
+   least 2^(-48 d). The compiler folds d like k; beyond CL_DEGREE_MAX the magnitude is checked:
+   one below CL_TINY becomes infinite (never certain) unless a factor's magnitude is 0 (`zero`:
+   then the value is exactly 0; a product of non-zero magnitudes may have underflowed to 0). */
+CL_INLINE cl_real cl_static(double v, double m, double k, double d, int zero)
+{
+    cl_real r;
+    r.v = v; r.e = 0.0; r.k = k; r.d = d; r.exact = 0;
+    r.m = (d <= CL_DEGREE_MAX || m >= CL_TINY || zero) ? m : INFINITY;
+    return r;
+}
+
+/* A value merged from a choice's branches (each static or dynamic, each with its own k and
+   d) as ONE static shape, k = CL_WIDE_K and d = CL_WIDE_D, so that the code after the choice
+   folds like the code before it. Sound because the static rules need only |x| <= m and
+   |v - x| <= gamma_k m, and the degree bound m >= 2^(-48 d): m is raised to the largest of a
+   bound on |x|, e/(k u) for the value's error bound e, and 2^(-48 d). The exact flag stays
+   (an exact 1 stays exact). The careful pass keeps the value as it is. */
+#define CL_WIDE_K 32.0
+#define CL_WIDE_D 4.0
+CL_INLINE double cl_bound(cl_real a);
+CL_INLINE cl_real cl_widen(cl_real x, int careful)
+{
+    double e, m;
+    if (careful)
+        return x;
+    e = cl_bound(x);
+    if (!(e < INFINITY) || !(fabs(x.v) < INFINITY)) {
+        m = INFINITY;
+    } else {
+        m = (x.k >= 0 ? x.m : fabs(x.v) + e) * CL_INFL;  /* >= |x| */
+        if (e * (2.0 / (CL_WIDE_K * CL_U)) * CL_INFL > m)
+            m = e * (2.0 / (CL_WIDE_K * CL_U)) * CL_INFL; /* gamma_K m >= K u m >= e */
+        if (m < 0x1p-192) /* 2^(-48 CL_WIDE_D) */
+            m = 0x1p-192;
+    }
+    x.e = 0.0; x.m = m; x.k = CL_WIDE_K; x.d = CL_WIDE_D;
+    return x;
+}
+
+/* the bound on |v - x| of any value; infinite for a static value that overflowed (m may not
+   have: only a finite v is within k U m of x) */
+CL_INLINE double cl_bound(cl_real a)
+{
+    return a.k < 0 ? a.e : fabs(a.v) < INFINITY ? a.k * CL_U * a.m : INFINITY;
+}
 
 CL_INLINE cl_real cl_approx(double v, double e, int careful)
 {
@@ -33,20 +115,22 @@ CL_INLINE cl_real cl_approx(double v, double e, int careful)
     if (careful && e == 0.0 && isfinite(v))
         return cl_exact(v); /* |v - x| <= 0: exact. The filter keeps it inexact, as filtered.py does,
                                so that its exactness flags are known when the code is compiled */
-    r.v = v; r.e = e; r.exact = 0;
+    r.v = v; r.e = e; r.m = 0.0; r.k = -1.0; r.d = 0.0; r.exact = 0;
     return r;
 }
 
 CL_INLINE cl_real cl_add_body(cl_real a, cl_real b, int careful)
 {
     double v = a.v + b.v, e;
+    if (!careful && a.k >= 0 && b.k >= 0)
+        return cl_static(v, a.m + b.m, (a.k > b.k ? a.k : b.k) + 1.0, a.d > b.d ? a.d : b.d, 1);
     if (careful && a.exact && b.exact && isfinite(v)) { /* TwoSum: the exact rounding error */
         double bb = v - a.v;
         return cl_approx(v, fabs((a.v - (v - bb)) + (b.v - bb)), careful);
     }
     e = fabs(v) * CL_U;
-    if (!a.exact) e = e + a.e;
-    if (!b.exact) e = e + b.e;
+    if (!a.exact) e = e + cl_bound(a);
+    if (!b.exact) e = e + cl_bound(b);
     return cl_approx(v, e, careful);
 }
 CL_SLOW cl_real cl_add_careful(cl_real a, cl_real b) { return cl_add_body(a, b, 1); }
@@ -59,21 +143,25 @@ CL_INLINE cl_real cl_neg(cl_real a) { a.v = -a.v; return a; }
 
 CL_INLINE cl_real cl_mul_body(cl_real a, cl_real b, int careful)
 {
-    double v = a.v * b.v, e;
+    double v = a.v * b.v, e, ea, eb;
+    if (!careful && a.k >= 0 && b.k >= 0)
+        return cl_static(v, a.m * b.m, a.k + b.k + 2.0, a.d + b.d, a.m == 0.0 || b.m == 0.0);
     if (careful && a.exact && b.exact && isfinite(v)) {
         if (a.v == 0.0 || b.v == 0.0)
             return cl_exact(v);
         if (fabs(v) >= CL_EFT_MIN) /* the fma residual is the exact rounding error */
             return cl_approx(v, fabs(fma(a.v, b.v, -v)), careful);
     }
+    ea = cl_bound(a);
+    eb = cl_bound(b);
     e = fabs(v) * CL_U;
     if (a.exact || b.exact) /* ETA unless an exact factor is 0 (then the product is exactly 0) */
         e = e + (((a.exact && a.v == 0.0) || (b.exact && b.v == 0.0)) ? 0.0 : CL_ETA);
     else
         e = e + CL_ETA;
-    if (!b.exact) e = e + fabs(a.v) * b.e;
-    if (!a.exact) e = e + fabs(b.v) * a.e;
-    if (!a.exact && !b.exact) e = e + a.e * b.e;
+    if (!b.exact) e = e + fabs(a.v) * eb;
+    if (!a.exact) e = e + fabs(b.v) * ea;
+    if (!a.exact && !b.exact) e = e + ea * eb;
     return cl_approx(v, e, careful);
 }
 CL_SLOW cl_real cl_mul_careful(cl_real a, cl_real b) { return cl_mul_body(a, b, 1); }
@@ -84,7 +172,9 @@ CL_INLINE cl_real cl_mul(cl_real a, cl_real b, int careful)
 
 CL_INLINE cl_real cl_div_body(cl_real a, cl_real b, int careful)
 {
-    double v = a.v / b.v, e, den, num;
+    double v = a.v / b.v, e, den, num, ea, eb;
+    if (!careful && a.k >= 0 && b.exact && b.v != 0.0) /* by an exact divisor: a rounding, as a product */
+        return cl_static(v, a.m / fabs(b.v), a.k + 2.0, a.d + b.d, a.m == 0.0);
     if (careful && a.exact && b.exact && b.v != 0.0 && isfinite(v)) {
         if (a.v == 0.0)
             return cl_exact(v);
@@ -95,9 +185,11 @@ CL_INLINE cl_real cl_div_body(cl_real a, cl_real b, int careful)
     e = fabs(v) * CL_U + (a.exact ? (a.v == 0.0 ? 0.0 : CL_ETA) : CL_ETA);
     if (a.exact && b.exact)
         return cl_approx(v, e, careful);
-    den = b.exact ? fabs(b.v) : fabs(b.v) - b.e;
-    num = (fabs(v) * (1.0 + CL_U) + CL_ETA) * (b.exact ? 0.0 : b.e);
-    if (!a.exact) num = num + a.e;
+    ea = cl_bound(a);
+    eb = cl_bound(b);
+    den = b.exact ? fabs(b.v) : fabs(b.v) - eb;
+    num = (fabs(v) * (1.0 + CL_U) + CL_ETA) * (b.exact ? 0.0 : eb);
+    if (!a.exact) num = num + ea;
     e = e + (den > 0 ? num / den : INFINITY); /* the divisor's sign unknown: never certain */
     return cl_approx(v, e, careful);
 }
@@ -109,13 +201,13 @@ CL_INLINE cl_real cl_div(cl_real a, cl_real b, int careful)
 
 CL_INLINE cl_real cl_sqrt_body(cl_real a, int careful)
 {
-    double v = sqrt(a.v), e, lo;
+    double v = sqrt(a.v), e, lo, ea = cl_bound(a);
     if (careful && a.exact && v >= CL_EFT_MIN && fma(v, v, -a.v) == 0.0)
         return cl_exact(v);
     e = fabs(v) * CL_U + CL_ETA;
     if (!a.exact) {
-        lo = (a.v - a.e * CL_INFL) - (fabs(a.v) + a.e) * CL_U;
-        e = e + (lo > 0 ? a.e * CL_INFL / sqrt(lo) : sqrt(a.e * CL_INFL)) * (1.0 + 4 * CL_U);
+        lo = (a.v - ea * CL_INFL) - (fabs(a.v) + ea) * CL_U;
+        e = e + (lo > 0 ? ea * CL_INFL / sqrt(lo) : sqrt(ea * CL_INFL)) * (1.0 + 4 * CL_U);
     }
     return cl_approx(v, e, careful);
 }
@@ -131,8 +223,8 @@ CL_INLINE int cl_certain(cl_real a, cl_real b)
     double e;
     if (a.exact && b.exact)
         return 1;
-    e = a.exact ? b.e : b.exact ? a.e : a.e + b.e;
-    return fabs(a.v - b.v) > e * CL_INFL || e == 0;
+    e = a.exact ? cl_bound(b) : b.exact ? cl_bound(a) : cl_bound(a) + cl_bound(b);
+    return (fabs(a.v - b.v) > e * CL_INFL || e == 0) && fabs(a.v - b.v) < INFINITY;
 }
 
 CL_INLINE int cl_lt(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v < b.v : -1; }
@@ -153,12 +245,20 @@ CL_INLINE int cl_tight(cl_real x)
 {
     if (x.exact)
         return isfinite(x.v);
-    return x.e * CL_INFL <= fabs(x.v) * CL_TIGHT && isfinite(x.v);
+    return cl_bound(x) * CL_INFL <= fabs(x.v) * CL_TIGHT && isfinite(x.v);
 }
 
 CL_INLINE double cl_lower(cl_real x)
 {
-    return (x.exact || x.e == 0) ? x.v : nextafter(x.v - x.e * CL_INFL, -INFINITY);
+    double e = cl_bound(x);
+    return (x.exact || e == 0) ? x.v : nextafter(x.v - e * CL_INFL, -INFINITY);
+}
+
+/* cl_lower(x) < k for a float k, without the libm call: the float below y is < k iff y <= k */
+CL_INLINE int cl_lower_below(cl_real x, double k)
+{
+    double e = cl_bound(x);
+    return (x.exact || e == 0) ? x.v < k : x.v - e * CL_INFL <= k;
 }
 
 /* one pass of the step: returns 1 (a run), 0 (no run), -1 (undecided) or, in the filter pass, -2 (run the careful pass) */
@@ -166,20 +266,36 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
 {
     int cl_t = 0;
     (void)cl_t;
-    /* inputs are finite numbers, or outside the model's domain: no run */
-    if (!(isfinite(px) && isfinite(py) && isfinite(pz) && isfinite(fxp) && isfinite(fyp) && isfinite(fzp) && isfinite(fx) && isfinite(fy) && isfinite(fz) && isfinite(D) && isfinite(e) && isfinite(G))) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(rx[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(nx[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(ry[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(ny[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(rz[cl_i])) goto blocked;
-    for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-        if (!isfinite(nz[cl_i])) goto blocked;
+    if (!careful) { /* inputs 0 or in [2^-48, 2^48], else the careful pass */
+        int cl_r = cl_in_range(px) & cl_in_range(py) & cl_in_range(pz) & cl_in_range(fxp) & cl_in_range(fyp) & cl_in_range(fzp) & cl_in_range(fx) & cl_in_range(fy) & cl_in_range(fz) & cl_in_range(D) & cl_in_range(e) & cl_in_range(G);
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            cl_r &= cl_in_range(rx[cl_i]);
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            cl_r &= cl_in_range(nx[cl_i]);
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            cl_r &= cl_in_range(ry[cl_i]);
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            cl_r &= cl_in_range(ny[cl_i]);
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            cl_r &= cl_in_range(rz[cl_i]);
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            cl_r &= cl_in_range(nz[cl_i]);
+        if (!cl_r) return -2;
+    } else { /* inputs finite, or outside the model's domain: no run */
+        if (!(isfinite(px) && isfinite(py) && isfinite(pz) && isfinite(fxp) && isfinite(fyp) && isfinite(fzp) && isfinite(fx) && isfinite(fy) && isfinite(fz) && isfinite(D) && isfinite(e) && isfinite(G))) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(rx[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(nx[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(ry[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(ny[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(rz[cl_i])) goto blocked;
+        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
+            if (!isfinite(nz[cl_i])) goto blocked;
+    }
     cl_real cl_px = cl_exact(px);
     cl_real cl_py = cl_exact(py);
     cl_real cl_pz = cl_exact(pz);
@@ -193,77 +309,94 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
     cl_real cl_e = cl_exact(e);
     cl_real cl_G = cl_exact(G);
     (void)cl_px; (void)cl_py; (void)cl_pz; (void)cl_fxp; (void)cl_fyp; (void)cl_fzp; (void)cl_fx; (void)cl_fy; (void)cl_fz; (void)cl_D; (void)cl_e; (void)cl_G; /* some are only set */
-    cl_real cl_k = cl_exact(1.0);
+    cl_real cl_k = cl_const(1.0);
     for (size_t i = 0; i < n_B; i++) { /* boundary loop */
-        cl_real cl_u = cl_exact(1.0);
+        cl_real cl_u = cl_const(1.0);
         cl_real cl_d0 = cl_add(cl_add(cl_mul(cl_add(cl_px, cl_neg(cl_exact(rx[i])), careful), cl_exact(nx[i]), careful), cl_mul(cl_add(cl_py, cl_neg(cl_exact(ry[i])), careful), cl_exact(ny[i]), careful), careful), cl_mul(cl_add(cl_pz, cl_neg(cl_exact(rz[i])), careful), cl_exact(nz[i]), careful), careful);
         cl_real cl_fnp = cl_add(cl_add(cl_mul(cl_fxp, cl_exact(nx[i]), careful), cl_mul(cl_fyp, cl_exact(ny[i]), careful), careful), cl_mul(cl_fzp, cl_exact(nz[i]), careful), careful);
         cl_real cl_fn = cl_add(cl_add(cl_mul(cl_fx, cl_exact(nx[i]), careful), cl_mul(cl_fy, cl_exact(ny[i]), careful), careful), cl_mul(cl_fz, cl_exact(nz[i]), careful), careful);
         /* choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0) */
+        cl_real cl_xtr = cl_approx(NAN, NAN, careful);
         if ((cl_t = cl_ge(cl_d0, cl_D)) != 0) { /* ff1 free (d0 >= D) */
             if (cl_t < 0) CL_UNSURE;
-            cl_u = cl_exact(1.0);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_ge(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0)))) != 0) { /* ff2 slow, fnp>=0 fn>=0 */
+            cl_u = cl_const(1.0);
+        } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0) { /* ff2 slow, fnp>=0 fn>=0 */
             if (cl_t < 0) CL_UNSURE;
-            cl_u = cl_exact(1.0);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_gt(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_le(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful)))) != 0) { /* ff3 slow, turns early */
+            cl_u = cl_const(1.0);
+        } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_gt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0) { /* ff3 slow, turns early */
             if (cl_t < 0) CL_UNSURE;
-            cl_u = cl_exact(1.0);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_gt(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_ge(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff4 slow, turns late */
+            cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
+            cl_u = cl_const(1.0);
+        } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_gt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff4 slow, turns late */
+            if (cl_t < 0) CL_UNSURE;
+            cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
+            cl_u = cl_div(cl_d0, cl_D, careful);
+        } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_eq(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff5 slow, fnp=0 fn<=0 */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_div(cl_d0, cl_D, careful);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_eq(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff5 slow, fnp=0 fn<=0 */
+        } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_lt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff6 slow, reverses early */
+            if (cl_t < 0) CL_UNSURE;
+            cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
+            cl_u = cl_div(cl_d0, cl_D, careful);
+        } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_lt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0) { /* ff7 slow, reverses late */
+            if (cl_t < 0) CL_UNSURE;
+            cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
+            cl_u = cl_const(1.0);
+        } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_eq(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0) { /* ff8 slow, fnp=0 fn>=0 */
+            if (cl_t < 0) CL_UNSURE;
+            cl_u = cl_const(1.0);
+        } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff9 slow, fnp<=0 fn<=0 */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_div(cl_d0, cl_D, careful);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_lt(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_le(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff6 slow, reverses early */
+        } else if ((cl_t = cl_le(cl_d0, cl_const(0.0))) != 0) { /* ff10 stuck (d0 <= 0) */
             if (cl_t < 0) CL_UNSURE;
-            cl_u = cl_div(cl_d0, cl_D, careful);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_lt(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_fnp, cl_exact(0.0))), cl_ge(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_exact(2.0), careful)))) != 0) { /* ff7 slow, reverses late */
-            if (cl_t < 0) CL_UNSURE;
-            cl_u = cl_exact(1.0);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_eq(cl_fnp, cl_exact(0.0))), cl_ge(cl_fn, cl_exact(0.0)))) != 0) { /* ff8 slow, fnp=0 fn>=0 */
-            if (cl_t < 0) CL_UNSURE;
-            cl_u = cl_exact(1.0);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_ge(cl_d0, cl_exact(0.0)), cl_le(cl_d0, cl_D)), cl_le(cl_fnp, cl_exact(0.0))), cl_le(cl_fn, cl_exact(0.0))), cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff9 slow, fnp<=0 fn<=0 */
-            if (cl_t < 0) CL_UNSURE;
-            cl_u = cl_div(cl_d0, cl_D, careful);
-        } else if ((cl_t = cl_le(cl_d0, cl_exact(0.0))) != 0) { /* ff10 stuck (d0 <= 0) */
-            if (cl_t < 0) CL_UNSURE;
-            cl_u = cl_exact(0.0);
+            cl_u = cl_const(0.0);
         } else { /* no alternative is enabled: the model has no run */
             goto blocked;
         }
-        cl_real cl_dist = cl_add(cl_d0, cl_mul(cl_mul(cl_G, cl_u, careful), cl_add(cl_mul(cl_fn, cl_e, careful), cl_mul(cl_mul(cl_fnp, cl_mul(cl_e, cl_e, careful), careful), cl_exact(0.5), careful), careful), careful), careful);
-        cl_real cl_disc = cl_add(cl_mul(cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), careful), cl_neg(cl_mul(cl_mul(cl_mul(cl_mul(cl_exact(2.0), cl_G, careful), cl_u, careful), cl_fnp, careful), cl_d0, careful)), careful);
+        cl_u = cl_widen(cl_u, careful);
+        cl_xtr = cl_widen(cl_xtr, careful);
+        cl_real cl_dist = cl_add(cl_d0, cl_mul(cl_mul(cl_G, cl_u, careful), cl_add(cl_mul(cl_fn, cl_e, careful), cl_mul(cl_mul(cl_fnp, cl_mul(cl_e, cl_e, careful), careful), cl_const(0.5), careful), careful), careful), careful);
+        cl_real cl_disc = cl_add(cl_mul(cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), careful), cl_neg(cl_mul(cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_G, careful), cl_u, careful), cl_fnp, careful), cl_d0, careful)), careful);
         /* choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away */
+        cl_real cl_tmp = cl_approx(NAN, NAN, careful);
         cl_real cl_kt = cl_approx(NAN, NAN, careful);
-        if ((cl_t = cl_and(cl_and(cl_le(cl_fnp, cl_exact(0.0)), cl_ge(cl_dist, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sa fnp<=0, clear */
+        if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sa fnp<=0, clear */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
             cl_kt = cl_u;
-        } else if ((cl_t = cl_and(cl_and(cl_le(cl_fnp, cl_exact(0.0)), cl_le(cl_dist, cl_exact(0.0))), cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* se fnp<=0, would cross */
+        } else if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* se fnp<=0, would cross */
             if (cl_t < 0) CL_UNSURE;
-            cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_exact(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), careful), careful);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_le(cl_disc, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sb turns back, disc<=0 */
+            cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
+            cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
+        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sb turns back, disc<=0 */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
             cl_kt = cl_u;
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_ge(cl_disc, cl_exact(0.0))), cl_ge(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_exact(0.0))), cl_ne(cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), cl_exact(0.0)))) != 0) { /* sf turns within step */
+        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), cl_exact(0.0)))) != 0) { /* sf turns within step */
             if (cl_t < 0) CL_UNSURE;
-            cl_kt = cl_mul(cl_mul(cl_mul(cl_exact(2.0), cl_fnp, careful), cl_d0, careful), cl_div(cl_exact(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful), careful);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_ge(cl_disc, cl_exact(0.0))), cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_exact(0.0))), cl_le(cl_dist, cl_exact(0.0))), cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* sg still inward, would cross */
+            cl_tmp = cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful);
+            cl_kt = cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_fnp, careful), cl_d0, careful), cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful), careful);
+        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* sg still inward, would cross */
             if (cl_t < 0) CL_UNSURE;
-            cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_exact(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_exact(2.0), careful), careful), careful), careful);
-        } else if ((cl_t = cl_and(cl_and(cl_and(cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_le(cl_fn, cl_exact(0.0))), cl_ge(cl_disc, cl_exact(0.0))), cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_exact(0.0))), cl_ge(cl_dist, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sc still inward, clear */
+            cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
+            cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
+        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sc still inward, clear */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
             cl_kt = cl_u;
-        } else if ((cl_t = cl_and(cl_and(cl_ge(cl_fnp, cl_exact(0.0)), cl_ge(cl_fn, cl_exact(0.0))), cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sd away */
+        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sd away */
             if (cl_t < 0) CL_UNSURE;
+            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
             cl_kt = cl_u;
         } else { /* no alternative is enabled: the model has no run */
             goto blocked;
         }
+        cl_tmp = cl_widen(cl_tmp, careful);
+        cl_kt = cl_widen(cl_kt, careful);
         { cl_real cl_v = cl_kt; /* k := min(k, kt), rounded down */
             if (!cl_tight(cl_v)) CL_UNSURE;
-            if (cl_lower(cl_v) < cl_k.v) cl_k = cl_exact(cl_lower(cl_v)); }
+            if (cl_lower_below(cl_v, cl_k.v)) cl_k = cl_exact(cl_lower(cl_v)); }
     }
     /* an output is returned rounded down to a float <= its real value */
     if (!cl_tight(cl_k)) CL_UNSURE;

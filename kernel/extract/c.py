@@ -91,13 +91,22 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
     reals = [v for v, s in params.items() if s == REAL]
     real_families = [v for v, s in families.items() if s.range == REAL]
     if reals or real_families:
-        body.append("    " + c_comment("inputs are finite numbers, or outside the model's domain: no run"))
-    if reals:
-        body.append(f"    if (!({' && '.join(f'isfinite({v})' for v in reals)})) goto blocked;")
-    for fam in real_families:
-        size = next(n for n in sizes)  # one index sort: checked by c_family
-        body.append(f"    for (size_t cl_i = 0; cl_i < {size}; cl_i++)")
-        body.append(f"        if (!isfinite({fam}[cl_i])) goto blocked;")
+        # the filter's static bounds need inputs in range (see cl_static), which are finite; the
+        # careful pass checks finiteness (a non-finite input fails the range: careful pass)
+        size = next(iter(sizes), None)  # one index sort: checked by c_family
+        body.append("    if (!careful) { " + c_comment("inputs 0 or in [2^-48, 2^48], else the careful pass"))
+        body.append(f"        int cl_r = {' & '.join(f'cl_in_range({v})' for v in reals) or '1'};")
+        for fam in real_families:  # no early exit: the compiler vectorises these
+            body.append(f"        for (size_t cl_i = 0; cl_i < {size}; cl_i++)")
+            body.append(f"            cl_r &= cl_in_range({fam}[cl_i]);")
+        body.append("        if (!cl_r) return -2;")
+        body.append("    } else { " + c_comment("inputs finite, or outside the model's domain: no run"))
+        if reals:
+            body.append(f"        if (!({' && '.join(f'isfinite({v})' for v in reals)})) goto blocked;")
+        for fam in real_families:
+            body.append(f"        for (size_t cl_i = 0; cl_i < {size}; cl_i++)")
+            body.append(f"            if (!isfinite({fam}[cl_i])) goto blocked;")
+        body.append("    }")
     for v, s in params.items():
         if s == REAL:
             body.append(f"    cl_real cl_{v} = cl_exact({v});")

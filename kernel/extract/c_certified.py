@@ -6,8 +6,15 @@ the C code of terms (values with error bounds, type `cl_real`) and formulas (thr
 
 Two passes, as the Python has a float pass and an exact pass:
 
-* the FILTER (careful = 0): exactly the formulas of `filtered.add/sub/mul/div/certain/tight/
-  lower`, with the same constants, so its decisions and outputs are the Python filter's;
+* the FILTER (careful = 0), semi-static: on inputs 0 or of magnitude in [2^-48, 2^48], a
+  value of a polynomial term (and of one divided by an input) is bounded by k·U·m -- k a count
+  of roundings the compiler folds, m the term evaluated on magnitudes, one extra operation per
+  operation (proof sketch at `cl_static`); a value merged from a choice's branches is
+  widened to one static shape (`cl_widen`); values past a division by a computed value carry
+  the running bound of `filtered.add/sub/mul/div`.
+  Guards are conjunctions evaluated left to right up to the first that fails (`cl_guard`).
+  Its decisions are the reals' (so the Python filter's wherever both decide), its outputs
+  floats at most the real values, not necessarily the Python's floats;
 * where a decision (or an output's tightness) is not certain, the whole step runs again with
   careful = 1: operations on exact operands use error-free transformations (TwoSum; the fma
   residual of a product or a quotient), so a result that is exactly representable stays
@@ -33,9 +40,14 @@ from certiloop.kernel.extract.errors import _refuse
 from certiloop.models.lang.terms import Node
 
 RUNTIME = r"""
-/* ---- certified arithmetic: a value v with a bound e on |v - x| for its real value x
-   (certiloop.kernel.extract.c_certified; the C counterpart of certiloop.kernel.filtered) ---- */
-typedef struct { double v, e; int exact; } cl_real;
+/* ---- certified arithmetic: a value v with a bound on |v - x| for its real value x
+   (certiloop.kernel.extract.c_certified; the C counterpart of certiloop.kernel.filtered) ----
+   A value is STATIC (k >= 0: |v - x| <= k U m, m the term evaluated on magnitudes) or
+   DYNAMIC (k < 0: |v - x| <= e, the running bound of filtered.py). Exact values are static
+   with k = 0, m = |v|. The filter keeps +, -, * and / by an exact value static: a count and a
+   magnitude per operation, which the compiler folds (k is a constant for every value that
+   does not come out of a choice), instead of a running bound. */
+typedef struct { double v, e, m, k, d; int exact; } cl_real; /* d: a static value's degree */
 
 #if defined(__GNUC__)
 #define CL_INLINE static inline __attribute__((always_inline)) /* a call per operation is 20x slower */
@@ -50,11 +62,88 @@ typedef struct { double v, e; int exact; } cl_real;
 #define CL_INFL (1.0 + 0x1p-40)       /* filtered.INFL */
 #define CL_TIGHT 0x1p-20              /* filtered.TIGHT */
 #define CL_EFT_MIN 0x1p-900           /* above this, a rounding residual is representable */
+#define CL_TINY 0x1p-1020             /* a static product's magnitude at least this: underflow is covered */
+#define CL_LEAF_MIN 0x1p-48           /* the filter's inputs: 0 or magnitudes in [2^-48, 2^48] ... */
+#define CL_LEAF_MAX 0x1p48
+#define CL_DEGREE_MAX 21.0            /* ... so a product of up to 21 of them is >= 2^-1008 > CL_TINY */
 /* a decision the floats cannot take: run the careful pass, else give up (return -1) */
 #define CL_UNSURE do { if (!careful) return -2; goto undecided; } while (0)
 #define CL_TEST(c) do { int cl_c = (c); if (cl_c < 0) CL_UNSURE; if (!cl_c) goto blocked; } while (0)
 
-CL_INLINE cl_real cl_exact(double x) { cl_real r; r.v = x; r.e = 0.0; r.exact = 1; return r; }
+CL_INLINE int cl_in_range(double x)
+{
+    double a = fabs(x);
+    return (a == 0.0) | ((a >= CL_LEAF_MIN) & (a <= CL_LEAF_MAX)); /* no branch: vectorised loops */
+}
+
+/* an input (the filter has checked its range), or a constant in range */
+CL_INLINE cl_real cl_exact(double x)
+{
+    cl_real r; r.v = x; r.e = 0.0; r.m = fabs(x); r.k = 0.0; r.d = 1.0; r.exact = 1; return r;
+}
+/* a model constant: degree 1 if in range, else one that fences every product it enters */
+CL_INLINE cl_real cl_const(double x)
+{
+    cl_real r = cl_exact(x);
+    r.d = cl_in_range(x) ? 1.0 : 1e9;
+    return r;
+}
+
+/* Static bounds (the filter only). Without underflow, a term evaluated in floats is its real
+   value with every monomial multiplied by at most d factors (1 + delta), |delta| <= u, d the
+   roundings on its path: |v - x| <= gamma_d m (Higham, Accuracy and Stability, 3.1), m the
+   real magnitude term. A product or quotient t whose computed magnitude is >= CL_TINY (or 0:
+   an exact zero factor, no rounding at all) underflows by at most 2^-1075 <= 2^-54 m(t) <= u
+   m(t), which reaches the root multiplied by t's cofactors: at most u m, counted as one more
+   rounding (k + 2 per product). k U m = 2 k u m covers gamma_k m and the rounding of m itself
+   (m_computed >= m (1 - u)^k). m(t) >= CL_TINY or 0 holds by construction where t's degree d
+   (leaves and 1/divisor count 1) is at most CL_DEGREE_MAX: the filter runs only on inputs 0 or
+   in [2^-48, 2^48] (else straight to the careful pass), so a non-zero monomial of m(t) is at
+   least 2^(-48 d). The compiler folds d like k; beyond CL_DEGREE_MAX the magnitude is checked:
+   one below CL_TINY becomes infinite (never certain) unless a factor's magnitude is 0 (`zero`:
+   then the value is exactly 0; a product of non-zero magnitudes may have underflowed to 0). */
+CL_INLINE cl_real cl_static(double v, double m, double k, double d, int zero)
+{
+    cl_real r;
+    r.v = v; r.e = 0.0; r.k = k; r.d = d; r.exact = 0;
+    r.m = (d <= CL_DEGREE_MAX || m >= CL_TINY || zero) ? m : INFINITY;
+    return r;
+}
+
+/* A value merged from a choice's branches (each static or dynamic, each with its own k and
+   d) as ONE static shape, k = CL_WIDE_K and d = CL_WIDE_D, so that the code after the choice
+   folds like the code before it. Sound because the static rules need only |x| <= m and
+   |v - x| <= gamma_k m, and the degree bound m >= 2^(-48 d): m is raised to the largest of a
+   bound on |x|, e/(k u) for the value's error bound e, and 2^(-48 d). The exact flag stays
+   (an exact 1 stays exact). The careful pass keeps the value as it is. */
+#define CL_WIDE_K 32.0
+#define CL_WIDE_D 4.0
+CL_INLINE double cl_bound(cl_real a);
+CL_INLINE cl_real cl_widen(cl_real x, int careful)
+{
+    double e, m;
+    if (careful)
+        return x;
+    e = cl_bound(x);
+    if (!(e < INFINITY) || !(fabs(x.v) < INFINITY)) {
+        m = INFINITY;
+    } else {
+        m = (x.k >= 0 ? x.m : fabs(x.v) + e) * CL_INFL;  /* >= |x| */
+        if (e * (2.0 / (CL_WIDE_K * CL_U)) * CL_INFL > m)
+            m = e * (2.0 / (CL_WIDE_K * CL_U)) * CL_INFL; /* gamma_K m >= K u m >= e */
+        if (m < 0x1p-192) /* 2^(-48 CL_WIDE_D) */
+            m = 0x1p-192;
+    }
+    x.e = 0.0; x.m = m; x.k = CL_WIDE_K; x.d = CL_WIDE_D;
+    return x;
+}
+
+/* the bound on |v - x| of any value; infinite for a static value that overflowed (m may not
+   have: only a finite v is within k U m of x) */
+CL_INLINE double cl_bound(cl_real a)
+{
+    return a.k < 0 ? a.e : fabs(a.v) < INFINITY ? a.k * CL_U * a.m : INFINITY;
+}
 
 CL_INLINE cl_real cl_approx(double v, double e, int careful)
 {
@@ -62,20 +151,22 @@ CL_INLINE cl_real cl_approx(double v, double e, int careful)
     if (careful && e == 0.0 && isfinite(v))
         return cl_exact(v); /* |v - x| <= 0: exact. The filter keeps it inexact, as filtered.py does,
                                so that its exactness flags are known when the code is compiled */
-    r.v = v; r.e = e; r.exact = 0;
+    r.v = v; r.e = e; r.m = 0.0; r.k = -1.0; r.d = 0.0; r.exact = 0;
     return r;
 }
 
 CL_INLINE cl_real cl_add_body(cl_real a, cl_real b, int careful)
 {
     double v = a.v + b.v, e;
+    if (!careful && a.k >= 0 && b.k >= 0)
+        return cl_static(v, a.m + b.m, (a.k > b.k ? a.k : b.k) + 1.0, a.d > b.d ? a.d : b.d, 1);
     if (careful && a.exact && b.exact && isfinite(v)) { /* TwoSum: the exact rounding error */
         double bb = v - a.v;
         return cl_approx(v, fabs((a.v - (v - bb)) + (b.v - bb)), careful);
     }
     e = fabs(v) * CL_U;
-    if (!a.exact) e = e + a.e;
-    if (!b.exact) e = e + b.e;
+    if (!a.exact) e = e + cl_bound(a);
+    if (!b.exact) e = e + cl_bound(b);
     return cl_approx(v, e, careful);
 }
 CL_SLOW cl_real cl_add_careful(cl_real a, cl_real b) { return cl_add_body(a, b, 1); }
@@ -88,21 +179,25 @@ CL_INLINE cl_real cl_neg(cl_real a) { a.v = -a.v; return a; }
 
 CL_INLINE cl_real cl_mul_body(cl_real a, cl_real b, int careful)
 {
-    double v = a.v * b.v, e;
+    double v = a.v * b.v, e, ea, eb;
+    if (!careful && a.k >= 0 && b.k >= 0)
+        return cl_static(v, a.m * b.m, a.k + b.k + 2.0, a.d + b.d, a.m == 0.0 || b.m == 0.0);
     if (careful && a.exact && b.exact && isfinite(v)) {
         if (a.v == 0.0 || b.v == 0.0)
             return cl_exact(v);
         if (fabs(v) >= CL_EFT_MIN) /* the fma residual is the exact rounding error */
             return cl_approx(v, fabs(fma(a.v, b.v, -v)), careful);
     }
+    ea = cl_bound(a);
+    eb = cl_bound(b);
     e = fabs(v) * CL_U;
     if (a.exact || b.exact) /* ETA unless an exact factor is 0 (then the product is exactly 0) */
         e = e + (((a.exact && a.v == 0.0) || (b.exact && b.v == 0.0)) ? 0.0 : CL_ETA);
     else
         e = e + CL_ETA;
-    if (!b.exact) e = e + fabs(a.v) * b.e;
-    if (!a.exact) e = e + fabs(b.v) * a.e;
-    if (!a.exact && !b.exact) e = e + a.e * b.e;
+    if (!b.exact) e = e + fabs(a.v) * eb;
+    if (!a.exact) e = e + fabs(b.v) * ea;
+    if (!a.exact && !b.exact) e = e + ea * eb;
     return cl_approx(v, e, careful);
 }
 CL_SLOW cl_real cl_mul_careful(cl_real a, cl_real b) { return cl_mul_body(a, b, 1); }
@@ -113,7 +208,9 @@ CL_INLINE cl_real cl_mul(cl_real a, cl_real b, int careful)
 
 CL_INLINE cl_real cl_div_body(cl_real a, cl_real b, int careful)
 {
-    double v = a.v / b.v, e, den, num;
+    double v = a.v / b.v, e, den, num, ea, eb;
+    if (!careful && a.k >= 0 && b.exact && b.v != 0.0) /* by an exact divisor: a rounding, as a product */
+        return cl_static(v, a.m / fabs(b.v), a.k + 2.0, a.d + b.d, a.m == 0.0);
     if (careful && a.exact && b.exact && b.v != 0.0 && isfinite(v)) {
         if (a.v == 0.0)
             return cl_exact(v);
@@ -124,9 +221,11 @@ CL_INLINE cl_real cl_div_body(cl_real a, cl_real b, int careful)
     e = fabs(v) * CL_U + (a.exact ? (a.v == 0.0 ? 0.0 : CL_ETA) : CL_ETA);
     if (a.exact && b.exact)
         return cl_approx(v, e, careful);
-    den = b.exact ? fabs(b.v) : fabs(b.v) - b.e;
-    num = (fabs(v) * (1.0 + CL_U) + CL_ETA) * (b.exact ? 0.0 : b.e);
-    if (!a.exact) num = num + a.e;
+    ea = cl_bound(a);
+    eb = cl_bound(b);
+    den = b.exact ? fabs(b.v) : fabs(b.v) - eb;
+    num = (fabs(v) * (1.0 + CL_U) + CL_ETA) * (b.exact ? 0.0 : eb);
+    if (!a.exact) num = num + ea;
     e = e + (den > 0 ? num / den : INFINITY); /* the divisor's sign unknown: never certain */
     return cl_approx(v, e, careful);
 }
@@ -138,13 +237,13 @@ CL_INLINE cl_real cl_div(cl_real a, cl_real b, int careful)
 
 CL_INLINE cl_real cl_sqrt_body(cl_real a, int careful)
 {
-    double v = sqrt(a.v), e, lo;
+    double v = sqrt(a.v), e, lo, ea = cl_bound(a);
     if (careful && a.exact && v >= CL_EFT_MIN && fma(v, v, -a.v) == 0.0)
         return cl_exact(v);
     e = fabs(v) * CL_U + CL_ETA;
     if (!a.exact) {
-        lo = (a.v - a.e * CL_INFL) - (fabs(a.v) + a.e) * CL_U;
-        e = e + (lo > 0 ? a.e * CL_INFL / sqrt(lo) : sqrt(a.e * CL_INFL)) * (1.0 + 4 * CL_U);
+        lo = (a.v - ea * CL_INFL) - (fabs(a.v) + ea) * CL_U;
+        e = e + (lo > 0 ? ea * CL_INFL / sqrt(lo) : sqrt(ea * CL_INFL)) * (1.0 + 4 * CL_U);
     }
     return cl_approx(v, e, careful);
 }
@@ -160,8 +259,8 @@ CL_INLINE int cl_certain(cl_real a, cl_real b)
     double e;
     if (a.exact && b.exact)
         return 1;
-    e = a.exact ? b.e : b.exact ? a.e : a.e + b.e;
-    return fabs(a.v - b.v) > e * CL_INFL || e == 0;
+    e = a.exact ? cl_bound(b) : b.exact ? cl_bound(a) : cl_bound(a) + cl_bound(b);
+    return (fabs(a.v - b.v) > e * CL_INFL || e == 0) && fabs(a.v - b.v) < INFINITY;
 }
 
 CL_INLINE int cl_lt(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v < b.v : -1; }
@@ -182,12 +281,20 @@ CL_INLINE int cl_tight(cl_real x)
 {
     if (x.exact)
         return isfinite(x.v);
-    return x.e * CL_INFL <= fabs(x.v) * CL_TIGHT && isfinite(x.v);
+    return cl_bound(x) * CL_INFL <= fabs(x.v) * CL_TIGHT && isfinite(x.v);
 }
 
 CL_INLINE double cl_lower(cl_real x)
 {
-    return (x.exact || x.e == 0) ? x.v : nextafter(x.v - x.e * CL_INFL, -INFINITY);
+    double e = cl_bound(x);
+    return (x.exact || e == 0) ? x.v : nextafter(x.v - e * CL_INFL, -INFINITY);
+}
+
+/* cl_lower(x) < k for a float k, without the libm call: the float below y is < k iff y <= k */
+CL_INLINE int cl_lower_below(cl_real x, double k)
+{
+    double e = cl_bound(x);
+    return (x.exact || e == 0) ? x.v < k : x.v - e * CL_INFL <= k;
 }
 """
 
@@ -199,7 +306,7 @@ def cl_constant(n: Node) -> str:
     value, error = certified.constant(Fraction(n.payload))
     if value in ("inf", "-inf", "nan"):
         raise _refuse(n, "a constant outside the double range")
-    return f"cl_exact({value})" if error is None else f"cl_approx({value}, {error}, careful)"
+    return f"cl_const({value})" if error is None else f"cl_approx({value}, {error}, careful)"
 
 
 def cl_op(n: Node, a: list[str]) -> str:
@@ -259,3 +366,15 @@ def cl_all(conds: list[str]) -> str:
     for c in conds[1:]:
         code = f"cl_and({code}, {c})"
     return code
+
+
+def cl_guard(conds: list[str]) -> str:
+    """The condition of `if (...)` that sets cl_t to the conjunction of three-valued
+    conditions and holds where it is not 0, evaluating them left to right and stopping at the
+    first that fails (the terms are pure: skipping them changes nothing but the time; the
+    filter's divisions and bounds of later conjuncts are the most costly part of a step)."""
+    conds = [c for c in conds if c != "1"]
+    if not conds:
+        return "(cl_t = 1) != 0"
+    steps = [f"(cl_t = {conds[0]}) != 0"] + [f"(cl_t = cl_and(cl_t, {c})) != 0" for c in conds[1:]]
+    return " && ".join(steps)

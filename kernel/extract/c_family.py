@@ -14,7 +14,7 @@ the alternative reads them, guarded by their divisor being non-zero, as in the P
 from __future__ import annotations
 
 from certiloop.kernel.extract.analysis import _conjuncts, _is_index_sort, _mentions, _outputs, _sort_of, _Step
-from certiloop.kernel.extract.c_certified import cl_all, cl_constant, cl_op
+from certiloop.kernel.extract.c_certified import cl_constant, cl_guard, cl_op
 from certiloop.kernel.extract.c_syntax import c_comment
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _solve
@@ -158,13 +158,17 @@ class _CFamily:
         # the first alternative that holds; one the floats cannot decide before it: CL_UNSURE
         for k, ((mask, effects), label) in enumerate(zip(alts, p.labels)):
             head = "if" if k == 0 else "} else if"
-            self.line(f"{head} ((cl_t = {cl_all(mask)}) != 0) {{ {c_comment(label)}")
+            self.line(f"{head} ({cl_guard(mask)}) {{ {c_comment(label)}")
             self.line("    if (cl_t < 0) CL_UNSURE;")
             for v, value in effects.items():
                 self.line(f"    cl_{v} = {value};")
         self.line(f"}} else {{ {c_comment('no alternative is enabled: the model has no run')}")
         self.line(f"    {BLOCK}")
         self.line("}")
+        for v in changed:  # one static shape whatever branch set it: the code after folds (cl_widen)
+            sort = _sort_of(self.theorem, v, REAL)
+            if (sort.range if sort.is_array else sort) == REAL:
+                self.line(f"cl_{v} = cl_widen(cl_{v}, careful);")
 
     def alternative(self, p: Program) -> tuple[list[str], dict[str, str]]:
         mask: list[str] = []
@@ -254,7 +258,8 @@ class _CFamily:
                 self.line(f"{{ cl_real cl_v = {v}; "
                           + c_comment(f"{var} := min({var}, {_brief(value, 40)}), rounded down"))
                 self.line("    if (!cl_tight(cl_v)) CL_UNSURE;")
-                self.line(f"    if (cl_lower(cl_v) < cl_{var}.v) cl_{var} = cl_exact(cl_lower(cl_v)); }}")
+                self.line(f"    if (cl_lower_below(cl_v, cl_{var}.v)) "
+                          f"cl_{var} = cl_exact(cl_lower(cl_v)); }}")
                 reduced.append(var)
                 continue
             for v in _scalars_written(s, index):

@@ -1,0 +1,143 @@
+"""The compiled back end of VirtualFixture.step (kernel/native.py): the same commands as the
+numpy path on sequences of steps (fallbacks with the same reason, certified gains), the numpy
+path taking over wherever the C does not pass, and a clear refusal when it is unavailable."""
+
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+from certiloop.kernel import VirtualFixture, ctrl2, monitor, native
+
+NATIVE = native.load(ctrl2.MODEL_HASH)
+needs_c = pytest.mark.skipif(NATIVE is None, reason=f"no compiled kernel: {native.why_not()}")
+
+
+def _scene(rng):
+    """Inside the model's assumptions: unit normals, the tool on the safe side (often exactly
+    on a plane), forces often zero."""
+    m = int(rng.integers(1, 8))
+    p = rng.uniform(-3, 3, 3)
+    normals = rng.normal(size=(m, 3))
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    d = np.where(rng.random(m) < 0.3, 0.0, rng.uniform(0, 3, m))
+    points = p - d[:, None] * normals
+    f = rng.uniform(-3, 3, 3) * (rng.random() < 0.8)
+    fp = rng.uniform(-3, 3, 3) * (rng.random() < 0.8)
+    G, D, e = rng.uniform(0.1, 3, 3)
+    return p, f, fp, list(zip(points, normals)), G, D, e
+
+
+def _exact_k(fixture: VirtualFixture, p, f, fp) -> Fraction:
+    """The real model's gain on these float inputs, in rationals (the generated exact path)."""
+    n, r = fixture._normals, fixture._points
+    x = [Fraction(float(v)) for v in (*p, *fp, *f, fixture.buffer, fixture.period, fixture.gain)]
+    fams = [np.array([Fraction(float(v)) for v in col], dtype=object)
+            for col in (r[:, 0], n[:, 0], r[:, 1], n[:, 1], r[:, 2], n[:, 2])]
+    k, enabled = ctrl2._exact(*x, *fams)
+    assert enabled
+    return k
+
+
+@needs_c
+def test_c_backend_gives_the_numpy_paths_commands():
+    """Steps through both back ends, the tool moving as the model says (sometimes off it, or
+    with a non-finite force): the same fallbacks with the same reasons; a passed C command is
+    the real gain rounded down (checked in rationals) and passes the Python monitor."""
+    rng = np.random.default_rng(7)
+    passed = fell_back = 0
+    for _ in range(200):
+        p, f, fp, planes, G, D, e = _scene(rng)
+        fast = VirtualFixture(planes, gain=G, buffer=D, period=e, backend="c")
+        slow = VirtualFixture(planes, gain=G, buffer=D, period=e, backend="python")
+        assert fast.backend == "c" and slow.backend == "python"
+        for step in range(4):
+            if step and rng.random() < 0.2:
+                p = p + rng.normal(scale=1e-3, size=3)  # off the model's prediction
+            if rng.random() < 0.05:
+                f = np.array([np.nan, 0.0, 0.0])
+            got, want = fast.step(p, f, fp), slow.step(p, f, fp)
+            assert got.ok == want.ok and got.reason == want.reason, (got, want)
+            if not got.ok:
+                assert got.k == 0.0 and not np.any(got.velocity)
+                fell_back += 1
+                continue
+            k = _exact_k(fast, p, f, fp)
+            if k >= 0:  # (a tool on a plane by rounding only: both command 0, see fixture.ROUNDING)
+                assert Fraction(got.k) <= k and got.k >= float(k) * (1 - 2.0 ** -19), (got.k, k)
+            assert np.array_equal(got.velocity, G * got.k * f)
+            assert np.array_equal(got.distances, want.distances)
+            d0, n = got.distances, fast._normals
+            assert monitor.check_command(got.k, d0, n @ f, n @ fp, G, e).ok
+            passed += 1
+            p = p + G * got.k * (f * e + fp * e * e / 2)
+    assert passed > 300 and fell_back > 30
+
+
+@needs_c
+def test_where_c_cannot_decide_the_numpy_path_does():
+    """The issue's plane (normal (1, 2.1e-162, 0), the tool on it, force (-2.1e-162, 1, 0),
+    G = D = e = 1, subnormal products): the C-backed fixture commands the full gain, as the
+    exact path does, with no spurious stop; a tool on a plane up to a rounding that C cannot
+    certify is handed to the numpy path, never stopped for that reason."""
+    fixture = VirtualFixture([((0, 0, 0), (1.0, 2.1e-162, 0.0))], gain=1, buffer=1, period=1, backend="c")
+    command = fixture.step((0, 0, 0), (-2.1e-162, 1, 0), (0, 0, 0))
+    assert command.ok and command.k == 1.0
+    rng = np.random.default_rng(11)
+    handed = 0
+    for _ in range(300):
+        p, f, fp, planes, G, D, e = _scene(rng)
+        fixture = VirtualFixture(planes, gain=G, buffer=D, period=e, backend="c")
+        numpy_path: list = []
+        fixture._step_python = _spy(fixture._step_python, numpy_path)
+        for _ in range(3):
+            command = fixture.step(p, f, fp)
+            if numpy_path and numpy_path[-1] is command and command.ok:
+                handed += 1  # C did not pass it; the numpy path decided it and it passed
+            if not command.ok:
+                break
+            p = p + G * command.k * (f * e + fp * e * e / 2)
+    assert handed > 0
+
+
+def _spy(run, seen: list):
+    def wrapped(*args):
+        seen.append(run(*args))
+        return seen[-1]
+    return wrapped
+
+
+def test_unknown_backend_and_unavailable_c_are_refused_in_one_line(monkeypatch, tmp_path):
+    with pytest.raises(ValueError, match="backend must be"):
+        VirtualFixture([], gain=1, buffer=1, period=1, backend="fortran")
+    monkeypatch.setattr(native, "_state", {})
+    monkeypatch.setenv("CERTILOOP_KERNEL", "python")
+    assert native.load() is None and native.why_not() == "CERTILOOP_KERNEL=python"
+    assert VirtualFixture([], gain=1, buffer=1, period=1).backend == "python"
+    with pytest.raises(ValueError, match="backend='c' is not available: CERTILOOP_KERNEL=python"):
+        VirtualFixture([], gain=1, buffer=1, period=1, backend="c")
+    monkeypatch.setattr(native, "_state", {})
+    monkeypatch.delenv("CERTILOOP_KERNEL")
+    monkeypatch.setenv("CERTILOOP_CACHE", str(tmp_path))  # nothing built yet
+    monkeypatch.setenv("PATH", str(tmp_path))
+    monkeypatch.delenv("CC", raising=False)
+    assert native.load() is None and "no C compiler" in native.why_not()
+    command = VirtualFixture([((0, 0, -1), (0, 0, 1))], gain=1, buffer=0.5, period=0.01).step(
+        (0, 0, 0), (1, 0, 0), (0, 0, 0))
+    assert command.ok and command.k == 1.0  # the numpy path, unchanged
+
+
+@needs_c
+def test_a_different_model_hash_is_not_loaded():
+    assert native.load(ctrl2.MODEL_HASH) is not None
+    assert native.load("0" * 16) is None
+
+
+def test_flags_and_declarations_are_the_extractors_and_the_headers():
+    from certiloop.kernel.extract.c_syntax import CFLAGS
+
+    assert native.FLAGS == CFLAGS
+    header = " ".join((native.KERNEL_C / "sbs_ctrl2_fixture.h").read_text().split())
+    proto = " ".join(native.CDEF.split("\n", 2)[2].split())
+    assert proto in header
+    assert native.model_hash((native.KERNEL_C / "sbs_ctrl2.h").read_text()) == ctrl2.MODEL_HASH
