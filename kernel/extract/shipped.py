@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from certiloop.kernel.extract.generate import extract
 
-SHIPPED = {"sbs.ctrl2": "ctrl2.py"}  # model -> module in certiloop.kernel generated from it
+SHIPPED = {"sbs.ctrl2": "ctrl2.py", "rcm.axial_guard": "rcm_guard.py"}  # model -> generated module
 SHIPPED_C = {"sbs.ctrl2": "c"}  # model -> folder of certiloop.kernel holding its C kernel
 
 
