@@ -11,8 +11,8 @@
   step as extracted into `kernel/rcm_guard.py` (hash-pinned: it refuses to run if the model
   changed since, and the gate re-extracts it byte for byte); `guarded_tip_velocity`
   applies it to a tip velocity against a point cloud (the gap is the smallest distance to
-  a ball of radius d_c, the speed |v| bounds how fast any gap closes). Non-finite input, or a tip already inside the inflated region, gives a zero
-  command; nothing here returns NaN.
+  a ball of radius d_c, the speed |v| bounds how fast any gap closes). Non-finite input,
+  or a tip already inside the inflated region, gives a zero command; nothing here returns NaN.
 
 The guard's guarantee is the model's: with the tip moving at the commanded (constant)
 velocity for at most one period, every gap stays >= margin.
