@@ -15,6 +15,7 @@ from certiloop.models.library import (
     raven,
     rcm,
     rcm_energy,
+    rcm_lyapunov,
     sbs,
     textbook,
 )
@@ -94,6 +95,8 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "rcm.capsule_unclamped": rcm_energy.capsule_unclamped,
     "rcm.capsule_continuous": rcm_energy.capsule_continuous,
     "rcm.clearance_unbounded_energy": rcm_energy.clearance_unbounded_energy,
+    "rcm.constraint_euler_lyapunov": rcm_lyapunov.constraint_euler_lyapunov,
+    "rcm.constraint_euler_lyapunov_stiff": rcm_lyapunov.constraint_euler_lyapunov_stiff,
     "raven.deviation_stop": raven.deviation_stop,
     "raven.deviation_small_margin": raven.deviation_small_margin,
     "raven.deviation_stop_3d": raven.deviation_stop_3d,
