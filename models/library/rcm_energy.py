@@ -74,7 +74,7 @@ def _midpoint(name: str, damping, charged: bool, expected: str, description: str
     dH = u ds - hD ((w + wn)/2)^2, so the step is passive iff D >= 0 and the barrier conservative."""
     ds = H * (wa + wn) / 2
     step = seq(havoc(ua), havoc(fa), havoc(da), test(damping),
-               havoc(wn), test((1 + H * da / 2) * wn == wa + H * (ua + fa) - H * da * wa / 2),
+               assign(wn, (wa + H * (ua + fa) - H * da * wa / 2) / (1 + H * da / 2)),
                assign(phi, phi - fa * ds) if charged else skip(),
                assign(sup, sup + ua * ds), assign(wa, wn))
     storage = wa * wa / 2 + phi
