@@ -26,6 +26,7 @@ REFUSED = {
     "rcm.barrier_clearance": "computes nothing",  # `?true`: an arithmetic fact, no step
     "rcm.constraint_euler_lyapunov": "repeats any number of times",  # the plant's Euler map
     "rcm.passivity_step_midpoint": "repeats any number of times",  # one plant period, no decision
+    "rcm.cloud_cover": "computes nothing",  # draws a voxel point: an arithmetic fact, no step
     "raven.jump_detected": "2 plant ODEs",  # a fault (jump) between two flows
     # seed 002 lemmas whose program only draws witnesses (no result) or repeats a motion step
     "cfmpa.hull_in_halfplane": "repeats any number of times",  # hull points drawn in a loop

@@ -95,6 +95,8 @@ _BUILDERS: dict[str, Callable[[], Theorem]] = {
     "rcm.capsule_unclamped": rcm_energy.capsule_unclamped,
     "rcm.capsule_continuous": rcm_energy.capsule_continuous,
     "rcm.clearance_unbounded_energy": rcm_energy.clearance_unbounded_energy,
+    "rcm.cloud_cover": rcm_energy.cloud_cover,
+    "rcm.cloud_cover_half_spacing": rcm_energy.cloud_cover_half_spacing,
     "rcm.constraint_euler_lyapunov": rcm_lyapunov.constraint_euler_lyapunov,
     "rcm.constraint_euler_lyapunov_stiff": rcm_lyapunov.constraint_euler_lyapunov_stiff,
     "raven.deviation_stop": raven.deviation_stop,

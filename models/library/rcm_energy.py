@@ -244,3 +244,36 @@ def clearance_unbounded_energy() -> Theorem:
     bound on the human's energy; without one no clearance follows."""
     return _clearance("rcm.clearance_unbounded_energy", Yb >= 0, "refuted",
                       "premise 'finite human energy' dropped: Y = e^(−√(2E/k)) → 0 admits gap 0")
+
+
+sv = Reals("spacing")[0]
+U3 = Reals("u1 u2 u3")
+
+
+def _cloud_cover(name: str, dc_squared, expected: str, description: str) -> Theorem:
+    """(8): O_c is the union of balls of radius d_c around the cloud's points, one per voxel of
+    side s (density rho = 1/s^3). It covers the true region only if every point of a voxel is
+    within d_c of the voxel's cloud point (its centre): u in [-s/2, s/2]^3 gives |u|^2 <= d_c^2
+    (d_c enters only squared, so it is written as d_c^2 in s)."""
+    return Theorem(
+        name=name,
+        assumptions=sv > 0,
+        program=seq(*(seq(havoc(u), test(And(-sv / 2 <= u, u <= sv / 2))) for u in U3)),
+        guarantee=_dot(U3, U3) <= dc_squared,
+        expected=expected,
+        constants=(sv,),
+        description=description,
+    )
+
+
+def cloud_cover() -> Theorem:
+    """(8) with the paper's d_c = sqrt(3)/(2 rho^(1/3)) = sqrt(3) s/2: every voxel point is covered."""
+    return _cloud_cover("rcm.cloud_cover", 3 * sv * sv / 4, "proved",
+                        "(8): balls of radius d_c = √3·s/2 around the voxel points cover every voxel")
+
+
+def cloud_cover_half_spacing() -> Theorem:
+    """Premise of (8): with d_c = s/2 (the ball inscribed in the voxel) the corners are outside
+    O_c, so 'never in O_c' would not keep the tool out of the true region."""
+    return _cloud_cover("rcm.cloud_cover_half_spacing", sv * sv / 4, "refuted",
+                        "(8) with d_c = s/2: a voxel's corner is outside O_c though inside the region")
