@@ -7,11 +7,12 @@
 * The axial reduction of (27) with the paper's barrier (11)-(13) and damping (43)-(45)
   (`barrier_force_axial`, `damping_axial`, `axial_euler_step`): the paper's 4 ms explicit
   Euler, used by the tests to show the crossing the model `rcm.axial_euler_4ms` refutes.
-* The proved sampled-data guard (`rcm.axial_guard`): `guard_speed` is the model's control
-  step; `guarded_tip_velocity` applies it to a tip velocity against a point cloud (the gap
-  is the smallest distance to a ball of radius d_c, the speed |v| bounds how fast any gap
-  closes). Non-finite input, or a tip already inside the inflated region, gives a zero
-  command; nothing here returns NaN.
+* The proved sampled-data guard (`rcm.axial_guard`): `guard_speed` runs the model's control
+  step as extracted into `kernel/rcm_guard.py` (hash-pinned: it refuses to run if the model
+  changed since, and the gate re-extracts it byte for byte); `guarded_tip_velocity`
+  applies it to a tip velocity against a point cloud (the gap is the smallest distance to
+  a ball of radius d_c, the speed |v| bounds how fast any gap closes). Non-finite input,
+  or a tip already inside the inflated region, gives a zero command; nothing here returns NaN.
 
 The guard's guarantee is the model's: with the tip moving at the commanded (constant)
 velocity for at most one period, every gap stays >= margin.
@@ -22,8 +23,11 @@ from __future__ import annotations
 import importlib
 import math
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
+
+from certiloop.kernel import rcm_guard
 
 # --------------------------------------------------------------------------- LWR4+ kinematics
 
@@ -138,16 +142,45 @@ def axial_euler_step(gap: float, w: float, push: float, h: float = H) -> tuple[f
     return gap - h * w, w + h * (push - f - d * w)
 
 
+_guard_checked = False
+
+
+def _check_guard_extracted() -> None:
+    """Refuse to run guard code extracted from a model that has changed since (once per process)."""
+    global _guard_checked
+    if _guard_checked:
+        return
+    from certiloop.models import library
+
+    current = library.get(rcm_guard.MODEL).content_hash
+    if current != rcm_guard.MODEL_HASH:
+        raise RuntimeError(f"kernel/rcm_guard.py was extracted from an older {rcm_guard.MODEL} (hash "
+                           f"{rcm_guard.MODEL_HASH}, now {current}); run `certiloop extract "
+                           f"{rcm_guard.MODEL} -o kernel/rcm_guard.py`")
+    _guard_checked = True
+
+
 def guard_speed(gap: float, speed: float, margin: float, period: float = H) -> float:
-    """The control step of the proved model rcm.axial_guard: keep `speed` if one period at it
-    keeps gap >= margin, else command (gap - margin)/period. Non-finite input or a gap
-    already below the margin (outside the model's premise) gives 0."""
+    """The control step of the proved model rcm.axial_guard, run by the code extracted from it
+    (kernel/rcm_guard.py): keep `speed` if one period at it keeps gap >= margin, else command
+    (gap - margin)/period. Non-finite input or a gap already below the margin (outside the
+    model's premise) gives 0. The model's decision is real-valued; the float result is
+    lowered by a few ulps where rounding would end the period below the margin (checked exactly)."""
     vals = (gap, speed, margin, period)
     if not all(math.isfinite(x) for x in vals) or period <= 0 or margin <= 0 or gap < margin:
         return 0.0
-    if period * speed <= gap - margin:
-        return speed
-    return (gap - margin) / period
+    _check_guard_extracted()
+    cmd, enabled = rcm_guard.controller(period, speed, gap, margin)
+    if not enabled or not math.isfinite(cmd):
+        return 0.0
+    # the float decision and division may be off by an ulp: lower the command until one period
+    # at it provably (in exact rationals) ends at >= margin; moving away (cmd <= 0) always does
+    slack = Fraction(gap) - Fraction(margin)
+    for _ in range(64):
+        if cmd <= 0.0 or Fraction(period) * Fraction(cmd) <= slack:
+            return cmd
+        cmd = math.nextafter(cmd, -math.inf)
+    return 0.0
 
 
 @dataclass(frozen=True)

@@ -24,6 +24,9 @@ REFUSED = {
     "rcm.constraint_exponential": "not a control loop",  # a lone ODE: no control step
     "rcm.constraint_euler_4ms": "repeats any number of times",  # the plant's Euler map, no decision
     "rcm.barrier_clearance": "computes nothing",  # `?true`: an arithmetic fact, no step
+    "rcm.constraint_euler_lyapunov": "repeats any number of times",  # the plant's Euler map
+    "rcm.passivity_step_midpoint": "repeats any number of times",  # one plant period, no decision
+    "rcm.cloud_cover": "computes nothing",  # draws a voxel point: an arithmetic fact, no step
     "raven.jump_detected": "2 plant ODEs",  # a fault (jump) between two flows
     # seed 002 lemmas whose program only draws witnesses (no result) or repeats a motion step
     "cfmpa.hull_in_halfplane": "repeats any number of times",  # hull points drawn in a loop
@@ -36,7 +39,8 @@ REFUSED = {
     "cfmpa.original_backward_half_unreachable": "a loop with no exit test",
 }
 EXTRACTS = [*dict.fromkeys([*CHECKED_IN_TEST_EXTRACT, "rcm.nullspace", "rcm.decoupling", "rcm.damping_bounds",
-            "rcm.barrier_continuous", "rcm.axial_guard", "raven.deviation_stop", "raven.deviation_stop_3d",
+            "rcm.barrier_continuous", "rcm.axial_guard", "rcm.passivity", "rcm.capsule_continuous",
+            "rcm.capsule_nearest_point", "raven.deviation_stop", "raven.deviation_stop_3d",
             "raven.haptic_force", "cfmpa.builtdr_inclusive", "cfmpa.property8", "cfmpa.halfspace_convex",
             "cfmpa.arc_in_triangle", "cfmpa.check_path", "cfmpa.segment_modified_full_speed",
             "cfmpa.joint_box_monotone"])]
@@ -130,6 +134,19 @@ def test_rcm_axial_guard_limits_the_command():
         (w,), _ = check_scalar("rcm.axial_guard", state, ["wcmd"])
         assert w == (wcmd if eps * wcmd <= gap - m else (gap - m) / eps)  # by hand
         assert gap - eps * w >= m - 1e-12  # the margin holds after one period
+
+
+def test_rcm_capsule_nearest_point_is_the_nearest_tool_point():
+    grid = np.linspace(0.0, 1.0, 2001)
+    for _ in range(60):
+        a, b, c = rng.uniform(-0.1, 0.1, (3, 3))
+        state = {f"{n}{i + 1}": float(v[i]) for n, v in (("pa", a), ("pb", b), ("pc", c)) for i in range(3)}
+        state["tau"] = float(rng.uniform(0, 1))
+        (num, den, sigma), enabled = check_scalar("rcm.capsule_nearest_point", state, ["num", "den", "sigma"])
+        assert enabled and 0.0 <= sigma <= 1.0
+        # independent: no point of a dense sample of the segment is nearer (by hand, numpy)
+        dist = np.linalg.norm(a + np.outer(grid, b - a) - c, axis=1)
+        assert np.linalg.norm(a + sigma * (b - a) - c) <= dist.min() + 1e-12
 
 
 # ------------------------------------------------------------------ raven

@@ -49,7 +49,9 @@ def _exact(text: str) -> Fraction:
 @pytest.mark.parametrize("name", [n for n in NAMES if library.get(n).expected == "refuted"])
 def test_refuted_runs_violate_the_guarantee_when_checked_here(results, name):
     ref = results[name].refutation
-    assert ref is not None and ref.trace and ref.check == "exact rationals"
+    assert ref is not None and ref.check == "exact rationals"
+    # (a lemma without steps, e.g. rcm.clearance_unbounded_energy, is refuted by its start)
+    assert ref.trace or not library.get(name).program.symbols()
     state = {k: _exact(v) for k, v in ref.initial.items()}
     for step in ref.trace:
         state.update({k: _exact(v) for k, v in step.state.items()})
@@ -87,3 +89,46 @@ def test_the_guard_is_proved_with_its_step_always_runnable(results):
     result = results["rcm.axial_guard"]
     assert result.verdict == "proved"
     assert result.nonblocking_verdict == "proved" and result.witness_replayed
+
+
+# --------------------------------------------------------------------------- energy: mutants never prove
+
+from certiloop.models.lang.terms import Reals  # noqa: E402
+from certiloop.models.library import rcm_energy, rcm_lyapunov  # noqa: E402
+
+
+@pytest.mark.parametrize("floor", [Fraction(-1, 100), Fraction(-1), Fraction(-100)])
+def test_passivity_with_negative_damping_is_never_proved(prover, floor):
+    mutant = rcm_energy._passivity("rcm.passivity_mut", floor, "refuted", "mutant")
+    assert prover.prove(mutant).verdict != "proved"
+
+
+@pytest.mark.parametrize("floor", [Fraction(-1, 1000), Fraction(-1), Fraction(-10)])
+def test_midpoint_step_with_negative_damping_is_refuted(prover, floor):
+    mutant = rcm_energy._midpoint("rcm.midpoint_mut", rcm_energy.da >= floor, True, "refuted", "mutant")
+    assert prover.prove(mutant).verdict == "refuted"
+
+
+@pytest.mark.parametrize("lever", ["0", "2*c2", "c1"])
+def test_capsule_with_the_force_mapped_by_another_lever_is_never_proved(prover, lever):
+    c1, c2 = Reals("c1 c2")
+    mutant = rcm_energy._capsule("rcm.capsule_mut", True, "refuted", "mutant",
+                                 lever2={"0": 0, "2*c2": 2 * c2, "c1": c1}[lever])
+    assert prover.prove(mutant).verdict != "proved"
+
+
+def test_capsule_without_the_energy_cap_is_never_proved(prover):
+    mutant = rcm_energy._capsule("rcm.capsule_uncapped", False, "refuted", "mutant")
+    assert prover.prove(mutant).verdict != "proved"
+
+
+@pytest.mark.parametrize("entry,delta", [((0, 0), Fraction(-50)), ((0, 1), Fraction(5)),
+                                         ((1, 1), Fraction(-1, 2))])
+def test_a_perturbed_lyapunov_matrix_is_not_proved(prover, monkeypatch, entry, delta):
+    P = [row[:] for row in rcm_lyapunov.EULER_P]
+    i, j = entry
+    P[i][j] += delta
+    P[j][i] = P[i][j]
+    monkeypatch.setattr(rcm_lyapunov, "EULER_P", P)
+    mutant = rcm_lyapunov._lyapunov("rcm.lyap_mut", rcm.ALPHA, "refuted", "mutant")
+    assert prover.prove(mutant).verdict != "proved"

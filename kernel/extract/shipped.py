@@ -8,7 +8,8 @@ from __future__ import annotations
 from certiloop.kernel.extract.generate import extract
 
 # model -> module in certiloop.kernel generated from it
-SHIPPED = {"sbs.ctrl2": "ctrl2.py", "cfmpa.builtdr": "cfmpa_builtdr.py", "cfmpa.check_path": "cfmpa_check.py"}
+SHIPPED = {"sbs.ctrl2": "ctrl2.py", "cfmpa.builtdr": "cfmpa_builtdr.py", "cfmpa.check_path": "cfmpa_check.py",
+           "rcm.axial_guard": "rcm_guard.py"}
 SHIPPED_C = {"sbs.ctrl2": "c"}  # model -> folder of certiloop.kernel holding its C kernel
 
 

@@ -220,13 +220,14 @@ def constraint_exponential() -> Theorem:
 # x+ = (1 - a h) x + h y, y+ = (1 - a h) y: a Jordan block with eigenvalue 1 - a h (0.9 for
 # Table 1), stable iff 0 < a h < 2. The certificate V = x^2 + y^2/400 decreases by the
 # factor rho^2 = (19/20)^2 per step (z3 checks it; rho = 0.95 is e^(-12.8 t) at 250 Hz).
-gs = Reals("gs")[0]
+gs, x_old = Reals("gs x_old")
 
 
 def _euler_constraint(name: str, a: int, expected: str, description: str) -> Theorem:
     y = vc + a * xc
     lyap = xc**2 + y**2 / 400
-    step = seq(assign(xc, xc + H * vc), assign(vc, vc + H * (-2 * a * vc - a**2 * xc)),
+    # explicit: both updates read the old state (x_old keeps x for the velocity update)
+    step = seq(assign(x_old, xc), assign(xc, xc + H * vc), assign(vc, vc + H * (-2 * a * vc - a**2 * x_old)),
                assign(gs, Fraction(361, 400) * gs))
     return Theorem(
         name=name,
