@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from certiloop.kernel.rcm import Q_ANCHOR, tool_tip
+from certiloop.kernel.rcm_arm import Q_ANCHOR, tool_tip
 from certiloop.kernel.rcm_cloud import CloudBarrier
 from certiloop.kernel.rcm_dynamics import TABLE1, RcmAdmittance
 

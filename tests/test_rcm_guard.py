@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from certiloop.kernel import rcm as k
-from certiloop.kernel import rcm_guard
+from certiloop.kernel import rcm_arm, rcm_guard
 from certiloop.kernel.extract import SHIPPED, shipped_drift
 from certiloop.models import library
 
@@ -26,7 +26,7 @@ def test_shipped_guard_is_a_fresh_extraction_of_the_proved_model():
 
 def test_a_changed_model_is_refused(monkeypatch):
     monkeypatch.setattr(rcm_guard, "MODEL_HASH", "0000000000000000")
-    monkeypatch.setattr(k, "_guard_checked", False)
+    monkeypatch.setattr(rcm_arm, "_guard_checked", False)  # the module state behind kernel.rcm
     with pytest.raises(RuntimeError, match="certiloop extract rcm.axial_guard"):
         k.guard_speed(0.01, 1.0, 0.001)
 
