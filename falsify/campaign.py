@@ -33,17 +33,30 @@ batching does not change results.
 Named setups (`SETUPS`, the `certiloop campaign` scenarios) draw one fault per run from a
 per-run seed and run the batch in chunks (`run_setup`); `falsify/metrics.py` summarises the
 rows; `raven.paper` runs the paper's fixed 4-window schedule (a periodic fault, `PAPER`).
-Not yet here: the Raven arm as the plant (the robot is a point tool that follows its command).
+
+The fixture is the kernel's proved `VirtualFixture` (the code extracted from sbs.ctrl2), its
+plane `margin` above the workspace plane, the operator's force being the reach velocity (G =
+1). Every run that is not stopped has the same model state as every other run of its
+operator (the model gets the clean command), so the fixture is stepped once per operator
+speed and tick (`model_trajectory`, cached per process) and its command shared: exactly the
+calls a per-run fixture would make. Operator speeds come in SPEED_LEVELS levels for that
+reason. A stopped run gets velocity 0 (k = 0, the fixture's own fallback).
+
+The plant is a point tool that follows its command, or the Raven arm (`plant="arm"`); with
+the arm, a "motor" stream carries the paper's fault: an "override" of the shoulder's DAC
+command by a constant `magnitude` * MAX_DAC for the window (RavenArm.step's tau_override).
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from certiloop.kernel.deviation import TOL, DeviationMonitor, residual
+from certiloop.kernel.fixture import VirtualFixture
 
 FAULT_KINDS = ("stuck", "delay", "drop", "jump", "noise", "drift")
 STREAMS = ("command", "encoder")
@@ -51,6 +64,9 @@ DT = 1e-3
 RUN_STRIDE = 1_000_000  # run i of a campaign with seed S has the run seed S * RUN_STRIDE + i
 MAX_RUNS = RUN_STRIDE
 MAX_SEED = 2**32 - 1
+MOTOR_KINDS = ("override",)  # the paper's constant DAC command, on the arm's "motor" stream only
+SPEED_LEVELS = 8  # operator speeds are quantised: one fixture trajectory per level
+FIXTURE_BUFFER = 0.001  # m: sbs.ctrl2's D (how far ahead the fixture slows the model)
 
 
 @dataclass(frozen=True)
@@ -63,7 +79,9 @@ class Fault:
     period: int = 0  # > 0: the window repeats every `period` ticks (the paper's schedule)
 
     def __post_init__(self) -> None:
-        if self.kind not in FAULT_KINDS or self.stream not in STREAMS:
+        known = (self.kind in FAULT_KINDS and self.stream in STREAMS) or (
+            self.kind in MOTOR_KINDS and self.stream == "motor")
+        if not known:
             raise ValueError(f"unknown fault {self.kind!r} on {self.stream!r}")
         if self.start < 0 or self.duration < 0 or not math.isfinite(self.magnitude):
             raise ValueError("a fault needs start >= 0, duration >= 0 and a finite magnitude")
@@ -199,7 +217,14 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
     p_model = np.broadcast_to(sc.start_height * n, (runs, 3)).copy()
     p_robot = p_model.copy()
     arm = _ArmPlant(runs, p_robot) if sc.plant == "arm" else None
-    speed = sc.reach_speed * (1.0 - sc.speed_spread * _uniform(keys, 0, 15))  # the operators differ
+    level = np.floor(_uniform(keys, 0, 15) * SPEED_LEVELS) / SPEED_LEVELS  # the operators differ
+    speed = sc.reach_speed * (1.0 - sc.speed_spread * level)
+    speeds, operator = np.unique(speed, return_inverse=True)
+    fixture_v = np.stack([model_trajectory(sc.ticks, sc.margin, float(s), sc.period, sc.start_height,
+                                           tuple(n))[1] for s in speeds])  # (operators, ticks, 3)
+    motor = _MotorStream(faults, runs)
+    if motor.any and arm is None:
+        raise ValueError("a motor-stream fault needs the arm plant (Scenario.plant='arm')")
     measured_prev = p_robot.copy()
     monitor = DeviationMonitor(runs, tol=sc.tol, fallback=sc.fallback)
     min_distance = p_robot @ n
@@ -208,14 +233,8 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
     alarms = np.zeros((runs, sc.ticks), dtype=bool) if trace else None
     distances = np.zeros((runs, sc.ticks)) if trace else None
     for tick in range(sc.ticks):
-        t = tick * DT
         stopped = monitor.stopped.copy()
-        # operator: reach towards the plane and back; fixture: keep the model >= margin
-        v = -(speed * math.cos(2 * math.pi * t / sc.period))[:, None] * n
-        dist_m = p_model @ n
-        vn = v @ n
-        limit = (sc.margin - dist_m) / DT  # the least normal speed keeping d_m >= margin
-        v += np.maximum(limit - vn, 0.0)[:, None] * n
+        v = fixture_v[operator, tick]  # the proved fixture's command on the run's model state
         v[stopped] = 0.0
         target_model = p_model + v * DT
         target_robot = command_stream(target_model, tick)  # the robot's commanded position
@@ -224,7 +243,7 @@ def run_campaign(faults: list, scenario: Scenario | None = None, seed: int = 0,
         if arm is None:
             p_robot = np.where(stopped[:, None], p_robot, target_robot)  # stopped: brakes hold it
         else:
-            p_robot = arm.step(target_robot, stopped)
+            p_robot = arm.step(target_robot, stopped, motor(tick))
         min_distance = np.minimum(min_distance, p_robot @ n)
         measured = encoder_stream(p_robot, tick)
         v_measured = (measured - measured_prev) / DT
@@ -266,16 +285,69 @@ class _ArmPlant:
         self.q_target = self.state.q[:, :3].copy()
         self.offset = self.kin.tip(self.q_target) - start  # world = tip - offset
 
-    def step(self, target: np.ndarray, stopped: np.ndarray) -> np.ndarray:
+    def step(self, target: np.ndarray, stopped: np.ndarray, tau_override=None) -> np.ndarray:
         self.q_target = self.kin.ik_step(target + self.offset, self.q_target)
         joints = np.concatenate([self.q_target, self.state.q[:, 3:]], axis=1)
-        moved, _, _ = self.arm.step(self.state, joints)
+        moved, _, _ = self.arm.step(self.state, joints, tau_override)
         hold = stopped[:, None]
         self.state.q = np.where(hold, self.state.q, moved.q)
         self.state.qdot = np.where(hold, 0.0, moved.qdot)
         self.state.integral = np.where(hold, self.state.integral, moved.integral)
         self.q_target = np.where(hold, self.state.q[:, :3], self.q_target)
         return self.kin.tip(self.state.q[:, :3]) - self.offset
+
+
+class _MotorStream:
+    """The arm's motor (DAC) stream: a run's "override" fault replaces the shoulder's torque
+    by magnitude * its DAC limit in the fault's (possibly periodic) window; NaN elsewhere (the
+    controller's own torque)."""
+
+    def __init__(self, faults: list, runs: int) -> None:
+        active = [f if (f is not None and f.stream == "motor") else None for f in faults]
+        self.any = any(f is not None for f in active)
+        self.start = np.array([f.start if f else -1 for f in active])
+        self.duration = np.array([f.duration if f else 0 for f in active])
+        self.period = np.array([f.period if f else 0 for f in active])
+        self.mag = np.array([f.magnitude if f else 0.0 for f in active])
+        self.runs = runs
+
+    def __call__(self, tick: int):
+        if not self.any:
+            return None
+        from certiloop.kernel.raven import TAU_MAX
+
+        since = tick - self.start
+        since = np.where(self.period > 0, since % np.maximum(self.period, 1), since)
+        on = (self.start >= 0) & (self.start <= tick) & (since < self.duration)
+        tau = np.full((self.runs, 3), np.nan)
+        tau[on, 0] = np.clip(self.mag[on], -1.0, 1.0) * TAU_MAX[0]
+        return tau
+
+
+@functools.lru_cache(maxsize=64)
+def model_trajectory(ticks: int, margin: float, speed: float, period: float, start_height: float,
+                     normal: tuple) -> tuple[np.ndarray, np.ndarray, int]:
+    """The model's positions (before each tick) and the fixture's velocities (ticks, 3) for an
+    operator reaching towards the plane at `speed` and back every `period` s, through the
+    kernel's proved VirtualFixture (plane `margin` above the workspace plane, G = 1, so the
+    force is the reach velocity), and how many ticks it fell back to k = 0. A pure function of
+    its arguments: every run of this operator that is not stopped sees exactly these calls."""
+    n = np.asarray(normal, dtype=float)
+    fixture = VirtualFixture([(margin * n, n)], gain=1.0, buffer=FIXTURE_BUFFER, period=DT)
+    p = start_height * n
+    positions, velocities, fallbacks = np.zeros((ticks, 3)), np.zeros((ticks, 3)), 0
+    omega = 2 * math.pi / period
+    for tick in range(ticks):
+        t = tick * DT
+        f = -(speed * math.cos(omega * t)) * n  # reach in, then back out
+        fp = (speed * omega * math.sin(omega * t)) * n  # df/dt
+        command = fixture.step(p, f, fp)
+        fallbacks += not command.ok
+        positions[tick], velocities[tick] = p, command.velocity
+        p = p + command.velocity * DT
+    positions.setflags(write=False)
+    velocities.setflags(write=False)
+    return positions, velocities, fallbacks
 
 
 def random_faults(runs: int, seed: int = 0, kinds=FAULT_KINDS, streams=STREAMS, ticks: int = 2000,
@@ -338,10 +410,10 @@ class Setup:
         return not any(r["crossed"] for r in rows)
 
 
-# The paper's experiment (section 3.2): 32 s, a fault every 8 s for 300 ticks (4 windows), the
-# haptic response. The paper overrides the shoulder's DAC; with a point tool as the plant (the
-# Raven arm is not wired in yet) a 5 mm command jump stands in for it: above tol, below the margin.
-PAPER = {"start": 4000, "window": 300, "period": 8000, "jump": 0.005, "ticks": 32000}
+# The paper's experiment (section 3.2): 32 s, the shoulder's DAC overridden by a constant command
+# for 300 ticks every 8 s (4 windows), the haptic response, the Raven arm as the plant.
+# `override` is the constant as a fraction of MAX_DAC (the paper: "zero or any in-range value").
+PAPER = {"start": 4000, "window": 300, "period": 8000, "override": 0.5, "ticks": 32000}
 
 
 SETUPS = {s.name: s for s in (
@@ -357,10 +429,11 @@ SETUPS = {s.name: s for s in (
           plant="arm", reach_speed=0.05, speed_spread=0.5),
     Setup("raven.haptic_only_arm", "the paper's haptic-only response with the Raven arm as the plant, "
           "operators at 0.025-0.05 m/s", "haptic", plant="arm", reach_speed=0.05, speed_spread=0.5),
-    Setup("raven.paper", "the paper's schedule: 4 windows of 300 ticks every 8 s over 32 s, haptic "
-          "response, a 5 mm command jump standing in for the shoulder DAC override (point-tool plant)",
+    Setup("raven.paper", "the paper's experiment: the Raven arm's shoulder DAC overridden by a constant "
+          "50 % of MAX_DAC for 300 ticks every 8 s over 32 s (4 windows), haptic response",
           "haptic", claim="every fault window alarmed, no alarm outside them or in the golden run",
-          schedule="paper", ticks=PAPER["ticks"]),
+          schedule="paper", ticks=PAPER["ticks"], plant="arm", reach_speed=0.05,
+          grace=1000),  # the settle: the arm, thrown ~14 cm, is pulled back within ~0.86 s
 )}
 
 
@@ -431,7 +504,7 @@ def _paper_rows(setup: Setup, seed: int) -> list[dict]:
     golden run, each window (TP if an alarm in [start, start + 300 + grace), else FN) and the
     faulty run's stretches between the windows (kind "none": TN, or FP on any alarm)."""
     ticks, grace = PAPER["ticks"], setup.grace
-    fault = Fault("jump", "command", PAPER["start"], PAPER["window"], PAPER["jump"], PAPER["period"])
+    fault = Fault("override", "motor", PAPER["start"], PAPER["window"], PAPER["override"], PAPER["period"])
     seeds = [seed * RUN_STRIDE, seed * RUN_STRIDE + 1]
     rec = run_campaign([None, fault], setup.scenario(ticks), run_seeds=seeds, trace=True)
 
@@ -446,7 +519,7 @@ def _paper_rows(setup: Setup, seed: int) -> list[dict]:
         end = min(ticks, start + PAPER["window"] + grace)
         covered[start:end] = True
         alarm = first(rec.alarms[1, start:end], start)
-        window = Fault("jump", "command", start, PAPER["window"], PAPER["jump"])
+        window = Fault("override", "motor", start, PAPER["window"], PAPER["override"])
         rows.append(_row(k + 1, seeds[1], window, alarm, "TP" if alarm >= 0 else "FN",
                          rec.distances[1, start:end].min()))
     outside = first(rec.alarms[1] & ~covered)

@@ -46,9 +46,9 @@ def test_paper_schedule_all_four_windows_alarm_and_nothing_else(tmp_path):
     json_file, csv_file = tmp_path / "p.json", tmp_path / "p.csv"
     assert campaign("raven.paper", "-q", "--json", str(json_file), "--csv", str(csv_file)) == 0
     doc = json.loads(json_file.read_text())
-    assert doc["holds"] and doc["by_kind"]["jump"]["TP"] == 4 and doc["by_kind"]["none"]["TN"] == 2
+    assert doc["holds"] and doc["by_kind"]["override"]["TP"] == 4 and doc["by_kind"]["none"]["TN"] == 2
     rows = list(csv.DictReader(csv_file.open()))
-    assert [int(r["start"]) for r in rows if r["kind"] == "jump"] == [4000, 12000, 20000, 28000]
+    assert [int(r["start"]) for r in rows if r["kind"] == "override"] == [4000, 12000, 20000, 28000]
 
 
 def test_csv_is_byte_identical_for_the_same_seed_and_agrees_with_the_json(tmp_path):

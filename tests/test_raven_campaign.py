@@ -67,3 +67,30 @@ def test_stop_keeps_every_bounded_fault_on_the_safe_side():
     assert haptic.crossings > 0
     m = stop.metrics()
     assert m["TP"] + m["FP"] + m["FN"] + m["TN"] == len(faults) and 0 <= m["TPR"] <= 1
+
+
+def test_the_fixture_in_the_loop_is_the_kernels_proved_virtual_fixture():
+    """The shared model trajectory is what a fresh VirtualFixture (sbs.ctrl2) commands on each
+    state, the model integrates exactly, and it never comes nearer the plane than the margin."""
+    from certiloop.falsify.campaign import DT, model_trajectory
+    from certiloop.kernel import VirtualFixture
+
+    n = np.array([0.0, 0.0, 1.0])
+    positions, velocities, fallbacks = model_trajectory(600, 0.006, 0.1, 2.0, 0.02, tuple(n))
+    fixture = VirtualFixture([(0.006 * n, n)], gain=1.0, buffer=0.001, period=DT)
+    for t in range(0, 600, 7):
+        omega = 2 * np.pi / 2.0  # the operator of model_trajectory, same arithmetic
+        f = -(0.1 * np.cos(omega * (t * DT))) * n
+        fp = (0.1 * omega * np.sin(omega * (t * DT))) * n
+        fixture._previous = None  # a fresh motion check: only the decision on this state is compared
+        assert np.array_equal(fixture.step(positions[t], f, fp).velocity, velocities[t])
+    assert np.array_equal(positions[1:], positions[:-1] + velocities[:-1] * DT)
+    assert fallbacks == 0 and positions[:, 2].min() >= 0.006 and positions[:, 2].min() < 0.0065
+
+
+def test_dac_override_needs_the_arm_and_is_detected_in_its_window():
+    override = Fault("override", "motor", 300, 200, 0.5)
+    with pytest.raises(ValueError, match="arm plant"):
+        run_campaign([override], Scenario(ticks=600))
+    rec = run_campaign([None, override], Scenario(ticks=800, plant="arm", fallback="haptic", grace=400))
+    assert rec.outcome == ["TN", "TP"] and 300 <= rec.first_alarm[1] < 500
