@@ -156,47 +156,51 @@ class _Stream:
     def __init__(self, faults: list, stream: str, runs: int, keys: np.ndarray, toward) -> None:
         self.keys, self.toward, self.lane = keys, toward, 0 if stream == "command" else 8
         active = [f if (f is not None and f.stream == stream) else None for f in faults]
-        self.kind = np.array([f.kind if f else "" for f in active])
+        kind = np.array([f.kind if f else "" for f in active])
+        self.is_kind = {k: kind == k for k in FAULT_KINDS}  # masks, not string compares per tick
         self.start = np.array([f.start if f else -1 for f in active])
         self.duration = np.array([f.duration if f else 0 for f in active])
         self.period = np.array([f.period if f else 0 for f in active])
         self.mag = np.array([f.magnitude if f else 0.0 for f in active])
         self.lag = int(max([round(f.magnitude) for f in active if f and f.kind == "delay"], default=0))
-        self.history = np.zeros((self.lag + 1, runs, 3))
+        self.history = np.zeros((self.lag + 1, runs, 3))  # a ring: slot t % (lag + 1) holds tick t
         self.held = np.zeros((runs, 3))
         self.was_on = np.zeros(runs, dtype=bool)
 
     def __call__(self, value: np.ndarray, tick: int) -> np.ndarray:
+        """The stream's output at `tick`; ticks come in order from 0 (the delay ring needs it)."""
         value = np.asarray(value, dtype=float)
         if self.lag:
-            self.history = np.roll(self.history, 1, axis=0)
-            self.history[0] = value
+            self.history[tick % (self.lag + 1)] = value
         since = tick - self.start
         since = np.where(self.period > 0, since % np.maximum(self.period, 1), since)  # into the window
         on = (self.start <= tick) & (since < self.duration)
+        if not on.any() and not self.was_on.any():  # most ticks: no window open, nothing held
+            return value.copy()
         first = on & ~self.was_on
         self.held = np.where(first[:, None], value, self.held)
         self.was_on = on
         out = value.copy()
-        k, mag = self.kind, self.mag
-        stuck = on & (k == "stuck")
+        mag, is_kind = self.mag, self.is_kind
+        stuck = on & is_kind["stuck"]
         out[stuck] = self.held[stuck]
-        delay = on & (k == "delay")
+        delay = on & is_kind["delay"]
         if delay.any():
             steps = np.clip(np.round(mag[delay]).astype(int), 0, self.lag)
-            out[delay] = self.history[steps, np.flatnonzero(delay)]
-        drop = on & (k == "drop")
-        lost = drop & (_uniform(self.keys, tick, self.lane) < mag)
-        out[lost] = self.held[lost]
-        self.held = np.where((drop & ~lost)[:, None], value, self.held)
-        jump = on & (k == "jump")
+            out[delay] = self.history[(tick - steps) % (self.lag + 1), np.flatnonzero(delay)]
+        drop = on & is_kind["drop"]
+        if drop.any():
+            lost = drop & (_uniform(self.keys, tick, self.lane) < mag)
+            out[lost] = self.held[lost]
+            self.held = np.where((drop & ~lost)[:, None], value, self.held)
+        jump = on & is_kind["jump"]
         out[jump] += mag[jump, None] * self.toward
-        noise = on & (k == "noise")
+        noise = on & is_kind["noise"]
         if noise.any():
             keys = self.keys[noise]
             gauss = np.stack([_normal(keys, tick, self.lane + 1 + 2 * i) for i in range(3)], axis=1)
             out[noise] += gauss * mag[noise, None]
-        drift = on & (k == "drift")
+        drift = on & is_kind["drift"]
         out[drift] += ((since[drift] + 1) * mag[drift])[:, None] * self.toward
         return out
 

@@ -105,18 +105,32 @@ def tip_velocity(q, qdot, arm: str = "left") -> np.ndarray:
     return np.einsum("rij,rj->ri", jacobian(q, arm), np.atleast_2d(np.asarray(qdot, dtype=float)))
 
 
-def _rot_x(alpha: float, v: np.ndarray) -> np.ndarray:
-    c, s = np.cos(alpha), np.sin(alpha)
-    return np.stack([v[..., 0], c * v[..., 1] - s * v[..., 2], s * v[..., 1] + c * v[..., 2]], axis=-1)
+# The positioning chain works on vectors as (x, y, z) tuples of per-run arrays (or scalars):
+# one stack at the end instead of one per rotation, which was most of a campaign tick.
+def _rot_x(cs: tuple[float, float], v: tuple) -> tuple:
+    c, s = cs
+    x, y, z = v
+    return x, c * y - s * z, s * y + c * z
 
 
-def _rot_z(ct: np.ndarray, st: np.ndarray, v: np.ndarray) -> np.ndarray:
-    return np.stack([ct * v[..., 0] - st * v[..., 1], st * v[..., 0] + ct * v[..., 1], v[..., 2]], axis=-1)
+def _rot_z(ct, st, v: tuple) -> tuple:
+    x, y, z = v
+    return ct * x - st * y, st * x + ct * y, z
 
 
-def _z_cross(v: np.ndarray) -> np.ndarray:
+def _z_cross(v: tuple) -> tuple:
     """e_z x v: the derivative of Rot_z(theta) v with respect to theta, at theta = 0."""
-    return np.stack([-v[..., 1], v[..., 0], np.zeros_like(v[..., 2])], axis=-1)
+    x, y, _ = v
+    return -y, x, 0.0
+
+
+def _columns(rows: int, *vectors: tuple) -> np.ndarray:
+    """Vectors given as (x, y, z) tuples -> an array (rows, 3, len(vectors)); one vector -> (rows, 3)."""
+    out = np.empty((rows, 3, len(vectors)))
+    for j, v in enumerate(vectors):
+        for i in range(3):
+            out[:, i, j] = v[i]
+    return out[..., 0] if len(vectors) == 1 else out
 
 
 class Positioning:
@@ -134,22 +148,24 @@ class Positioning:
         f = frames(q, arm)[0]
         self.c = (np.linalg.inv(f[2]) @ f[5][:, 3])[:3]  # the tip in frame 3, whatever d3 (d3 = 0 here)
         self.c3, self.s3 = np.cos(THETA3[arm]), np.sin(THETA3[arm])
+        self.rx = [(float(np.cos(a)), float(np.sin(a))) for a in self.alpha[:3]]
 
     def tip_and_jacobian(self, qp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """qp (R, 3) -> tip (R, 3) and d tip / d qp (R, 3, 3)."""
         qp = np.asarray(qp, dtype=float)
-        a1, a2, a3 = self.alpha[:3]
+        r1, r2, r3 = self.rx
         c1, s1, c2, s2 = np.cos(qp[:, 0]), np.sin(qp[:, 0]), np.cos(qp[:, 1]), np.sin(qp[:, 1])
-        ez = np.broadcast_to(np.array([0.0, 0.0, 1.0]), qp.shape)
-        x3 = self.c + qp[:, 2:3] * ez  # in frame 3, before its rotation
-        y2 = _rot_x(a3, _rot_z(self.c3, self.s3, x3))  # A[2] = 0: in frame 2
-        dy2 = _rot_x(a3, _rot_z(self.c3, self.s3, ez))  # d/d d3
-        y1 = _rot_x(a2, _rot_z(c2, s2, y2))  # A[1] = 0: in frame 1
-        dy1_d3 = _rot_x(a2, _rot_z(c2, s2, dy2))
-        dy1_th2 = _rot_x(a2, _rot_z(c2, s2, _z_cross(y2)))
-        tip = _rot_x(a1, _rot_z(c1, s1, y1))  # A[0] = 0
-        J = np.stack([_rot_x(a1, _rot_z(c1, s1, _z_cross(y1))), _rot_x(a1, _rot_z(c1, s1, dy1_th2)),
-                      _rot_x(a1, _rot_z(c1, s1, dy1_d3))], axis=-1)
+        ez = (0.0, 0.0, 1.0)
+        x3 = (self.c[0], self.c[1], self.c[2] + qp[:, 2])  # in frame 3, before its rotation
+        y2 = _rot_x(r3, _rot_z(self.c3, self.s3, x3))  # A[2] = 0: in frame 2
+        dy2 = _rot_x(r3, _rot_z(self.c3, self.s3, ez))  # d/d d3
+        y1 = _rot_x(r2, _rot_z(c2, s2, y2))  # A[1] = 0: in frame 1
+        dy1_d3 = _rot_x(r2, _rot_z(c2, s2, dy2))
+        dy1_th2 = _rot_x(r2, _rot_z(c2, s2, _z_cross(y2)))
+        rows = len(qp)
+        tip = _columns(rows, _rot_x(r1, _rot_z(c1, s1, y1)))  # A[0] = 0
+        J = _columns(rows, _rot_x(r1, _rot_z(c1, s1, _z_cross(y1))), _rot_x(r1, _rot_z(c1, s1, dy1_th2)),
+                     _rot_x(r1, _rot_z(c1, s1, dy1_d3)))
         return tip, J
 
     def tip(self, qp: np.ndarray) -> np.ndarray:
