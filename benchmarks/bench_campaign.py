@@ -10,6 +10,9 @@
    robot's peak speed = scale x 0.5 m/s of the surgeon's hand (an assumption: the paper gives
    the scales, not the hand's speed), operators differing by up to 50 % in speed; the peak
    deviation's mean and standard deviation, and the alarms at tol = 3 mm.
+4. Detection latency of the paper's fault (a shoulder DAC override >= 50 % of MAX_DAC, 200
+   runs with the arm), and the worst-case search's reliability (`--search raven.no_margin`,
+   seeds 0-19: faults tried before the first crossing).
 
     python benchmarks/bench_campaign.py [--runs 2000] [--calls 5000] [--arm-runs 2000]
 """
@@ -25,7 +28,8 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 from common import record
 
-from certiloop.falsify.campaign import SETUPS, Scenario, run_campaign, run_setup
+from certiloop.falsify.campaign import SETUPS, Fault, Scenario, run_campaign, run_setup
+from certiloop.falsify.campaign_search import worst_case
 from certiloop.kernel import VirtualFixture
 from certiloop.kernel.deviation import DeviationMonitor
 
@@ -63,6 +67,31 @@ def tick_cost(calls: int) -> dict:
             "value": round(statistics.median(times) / 1000, 1), "unit": "µs (median)"}
 
 
+def dac_override_latency(runs: int = 200) -> dict:
+    """The paper's fault: the shoulder's DAC overridden by a constant >= 50 % of MAX_DAC (either
+    sign) for 300 ticks, the arm as the plant; ticks from the window's start to the alarm."""
+    rng = np.random.default_rng(0)
+    faults = [Fault("override", "motor", int(rng.integers(200, 1200)), 300,
+                    float(rng.choice([-1, 1]) * rng.uniform(0.5, 1.0))) for _ in range(runs)]
+    sc = Scenario(ticks=1600, plant="arm", fallback="haptic", reach_speed=0.05, speed_spread=0.5)
+    rec = run_campaign(faults, sc, seed=0)
+    latency = np.array([a - f.start for f, a in zip(faults, rec.first_alarm) if a >= f.start])
+    return {"measure": "DAC override >= 50 % MAX_DAC, latency ticks (1 ms): median / p95 / max",
+            "runs": runs, "seconds": "",
+            "value": f"{np.median(latency):.0f} / {np.percentile(latency, 95):.0f} / {latency.max():.0f}",
+            "unit": f"{len(latency)} of {runs} alarmed in their window"}
+
+
+def search_seeds(seeds: int = 20, max_examples: int = 500) -> dict:
+    """--search on raven.no_margin for seeds 0..seeds-1: faults tried until a crossing."""
+    found = [worst_case(SETUPS["raven.no_margin"], max_examples=max_examples, seed=s) for s in range(seeds)]
+    tried = [r.found_after for r in found if r.fault is not None]
+    return {"measure": "--search raven.no_margin: faults tried to the first crossing, min / median / max",
+            "runs": seeds, "seconds": "",
+            "value": f"{min(tried)} / {statistics.median(tried):.0f} / {max(tried)}" if tried else "-",
+            "unit": f"{len(tried)} of {seeds} seeds crossed (all shrunk and replayed)"}
+
+
 def calibration(runs: int = 100) -> list[dict]:
     rows = []
     for scale in (0.05, 0.1, 0.15, 0.2):
@@ -84,7 +113,7 @@ def main() -> None:
     record("campaign", [runs_per_second(args.runs, 1), runs_per_second(args.runs, 2),
                         runs_per_second(args.arm_runs, 1, "raven.stop_margin_arm", batch=1000),
                         runs_per_second(args.arm_runs, 2, "raven.stop_margin_arm", batch=1000),
-                        tick_cost(args.calls), *calibration()])
+                        tick_cost(args.calls), dac_override_latency(), search_seeds(), *calibration()])
 
 
 if __name__ == "__main__":

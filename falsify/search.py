@@ -27,6 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from certiloop.falsify.choosers import Diverged, HypothesisChooser, Recording, Scripted
+from certiloop.falsify.constant_pool import pinned_constants
 from certiloop.falsify.depth import FLOAT_TOLERANCE, _deep, _depth  # noqa: F401 (re-exported)
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import Inexact
@@ -137,7 +138,7 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     test._hypothesis_internal_database_key = hashlib.sha256(  # one database entry per model
         f"{theorem.content_hash}/{opts.digest()}".encode()).digest()
     try:
-        with _shrink_budget(SHRINK_SECONDS), _model_constants(theorem):
+        with _shrink_budget(SHRINK_SECONDS), pinned_constants(_literals(theorem)):
             test()
     except _Found as found:
         check = found.check if found.check != "deep" else confirm(theorem, found.script, found.run, opts)
@@ -168,39 +169,9 @@ def _shrink_budget(seconds: float):
             engine.MAX_SHRINKING_SECONDS = old
 
 
-@contextmanager
-def _model_constants(theorem: Theorem):
-    """Hypothesis now and then draws a "local constant" it harvested from the source of every
-    non-installed module imported so far (certiloop's own, in a development checkout; the
-    user's), so a search found different runs depending on what the process had imported
-    before: `gate m` could fail where `gate` passed. Pin that pool to the model's own
-    numbers instead: the same search in any process, aimed at the model's thresholds.
-    Without these internals (another hypothesis version) this does nothing."""
-    try:
-        from hypothesis.internal.conjecture import providers
-        from hypothesis.internal.constants_ast import Constants
-    except ImportError:  # pragma: no cover - hypothesis internals moved
-        yield
-        return
-    old = getattr(providers, "_get_local_constants", None)
-    cache = getattr(providers, "CONSTANTS_CACHE", None)
-    if old is None or cache is None:  # pragma: no cover
-        yield
-        return
-    numbers = _literals(theorem)
-    pinned = Constants(integers=sorted({int(v) for v in numbers if v.denominator == 1}),
-                       floats=sorted({float(v) for v in numbers}), bytes=[], strings=[])
-    providers._get_local_constants = lambda: pinned
-    cache.cache.clear()
-    try:
-        yield
-    finally:
-        providers._get_local_constants = old
-        cache.cache.clear()
-
-
 def _literals(theorem: Theorem) -> set:
-    """Every numeric literal of the theorem, and its negation."""
+    """Every numeric literal of the theorem, and its negation: the pool hypothesis draws
+    constants from while it searches this theorem (`pinned_constants`)."""
     from certiloop.models.lang.theorem import _visit
 
     found: set = set()

@@ -1,6 +1,8 @@
 """Campaign batches on other executors, the worst-case fault search, the ROC/latency plots."""
 
 import json
+import subprocess
+import sys
 from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 
 import numpy as np
@@ -62,6 +64,35 @@ def test_search_is_deterministic_for_a_seed():
     a = worst_case(SETUPS["raven.no_margin"], kinds=("jump", "drift"), max_examples=100, seed=3)
     b = worst_case(SETUPS["raven.no_margin"], kinds=("jump", "drift"), max_examples=100, seed=3)
     assert a.fault is not None and a.fault == b.fault and a.examples == b.examples
+
+
+SEARCH_AFTER_IMPORTS = """
+import importlib, sys
+sys.path.insert(0, sys.argv[1])
+for name in sys.argv[2:]:
+    importlib.import_module(name)
+from certiloop.falsify.campaign import SETUPS
+from certiloop.falsify.campaign_search import worst_case
+r = worst_case(SETUPS["raven.no_margin"], kinds=("jump", "drift"), max_examples=100, seed=3)
+print(r.fault, r.found_after)
+"""
+
+
+def test_search_does_not_depend_on_what_the_process_imported_before(tmp_path):
+    """Hypothesis harvests constants from every local module imported so far; the search pins
+    that pool, so a process that imported a module full of new numbers searches the same (it
+    did not: the Raven arm's kernel, imported by a campaign, changed which fault came first)."""
+    numbers = ", ".join(f"{0.0021 + k * 1e-5!r}, {101 + 3 * k}" for k in range(200))  # fault starts
+    (tmp_path / "many_new_numbers.py").write_text(f"NUMBERS = [{numbers}]\n")
+
+    def search(*imports: str) -> str:
+        done = subprocess.run([sys.executable, "-c", SEARCH_AFTER_IMPORTS, str(tmp_path), *imports],
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr
+        return done.stdout
+
+    plain = search()
+    assert plain.startswith("Fault(") and plain == search("many_new_numbers")
 
 
 def test_search_on_the_proved_margin_finds_no_crossing(tmp_path):
