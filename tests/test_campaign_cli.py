@@ -66,10 +66,12 @@ def test_csv_is_byte_identical_for_the_same_seed_and_agrees_with_the_json(tmp_pa
 
 
 def test_batching_does_not_change_a_run():
+    """50 random faults stepped together, in batches of 7, and one run at a time: equal rows."""
     setup = SETUPS["raven.haptic_only"]
-    whole = run_setup(setup, runs=40, seed=5, ticks=600, batch=40)
-    assert run_setup(setup, runs=40, seed=5, ticks=600, batch=7) == whole
-    assert summarize(whole)["runs"] == 40
+    whole = run_setup(setup, runs=50, seed=5, ticks=600, batch=50)
+    assert run_setup(setup, runs=50, seed=5, ticks=600, batch=7) == whole
+    assert run_setup(setup, runs=50, seed=5, ticks=600, batch=1) == whole
+    assert summarize(whole)["runs"] == 50 and len({r["kind"] for r in whole}) >= 5
 
 
 @pytest.mark.parametrize("args, message", [
