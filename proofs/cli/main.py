@@ -137,14 +137,17 @@ def build_parser() -> argparse.ArgumentParser:
 
     campaign = sub.add_parser(
         "campaign", help="inject faults into a simulated closed loop and measure the monitor",
-        description="Run SCENARIO (raven.stop_margin, raven.haptic_only: one fault per run, a "
-        "share of runs without one, drawn from the run's seed; raven.paper: the paper's fixed "
-        "4-window experiment) and report per fault kind TP/FP/FN/TN, TPR and FPR with Wilson "
+        description="Run SCENARIO (raven.stop_margin, raven.haptic_only, raven.no_margin, and "
+        "raven.stop_margin_arm, raven.haptic_only_arm with the Raven arm as the plant: one fault per "
+        "run, a share of runs without one, drawn from the run's seed; raven.paper: the paper's fixed "
+        "4-window experiment, a shoulder DAC override on the arm) and report per fault kind "
+        "TP/FP/FN/TN, TPR and FPR with Wilson "
         "95% intervals, F1, detection latency (median, p95) and boundary crossings. Exit 0 if "
         "the scenario's claim holds (stop_margin, haptic_only: no crossing; paper: every window "
         "alarmed, no other alarm), 1 if not (the first crossing run is printed for replay).")
     campaign.add_argument("scenario", metavar="SCENARIO",
-                          help="raven.stop_margin, raven.haptic_only, raven.no_margin or raven.paper")
+                          help="raven.stop_margin, raven.haptic_only, raven.no_margin, "
+                          "raven.stop_margin_arm, raven.haptic_only_arm or raven.paper")
     campaign.add_argument("--faults", metavar="KIND,...",
                           help="fault kinds among stuck, delay, drop, jump, noise, drift (default all)")
     campaign.add_argument("--runs", metavar="N", type=int, help="runs (default 1000)")
