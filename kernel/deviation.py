@@ -30,11 +30,13 @@ exact evaluation of the theorem's guard).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from fractions import Fraction
 
 import numpy as np
 
 TOL = 0.003  # m: the paper's 3 mm threshold, from its fault-free runs (Fig 4)
 GUARD_BAND = 1e-9  # relative: stop slightly early rather than late under rounding
+TIE_BAND = 1e-12  # relative: a force decision with ||dp|| this close to tol is re-decided exactly
 
 
 def _vec(x) -> np.ndarray:
@@ -93,12 +95,34 @@ def haptic_force(p_model, v_model, p_robot, v_robot, tol: float = TOL, kp: float
         ndp = np.sqrt(np.einsum("...i,...i->...", dp, dp))
         ndv = np.sqrt(np.einsum("...i,...i->...", dv, dv))
         raw = kp * ndp + kd * ndv
+        # above tol the real F is > 0 when kp > 0 (or kd > 0 and the velocities differ); a
+        # product that underflowed to 0 (kp = 5e-324) keeps the least positive float instead
+        positive = (kp > 0) | ((kd > 0) & (ndv > 0))
+        raw = np.where(positive & (raw == 0.0), np.nextafter(0.0, 1.0), raw)
     finite = ok & np.isfinite(ndp) & np.isfinite(ndv)
-    on = finite & (ndp > tol)
+    on = _above(pm, pr, ndp, tol, finite)
     force = np.where(on, np.minimum(np.where(np.isfinite(raw), raw, saturation), saturation), 0.0)
     with np.errstate(invalid="ignore", divide="ignore"):
         d = np.where((on & (force > 0))[..., None], dp / np.where(ndp > 0, ndp, 1.0)[..., None], 0.0)
     return force, d
+
+
+def _above(pm: np.ndarray, pr: np.ndarray, ndp: np.ndarray, tol: float, finite: np.ndarray) -> np.ndarray:
+    """||p_model - p_robot|| > tol, as the reals decide it: the float norm is within a few ulps
+    of the real one, so only rows within TIE_BAND of tol are re-decided, in exact rationals of
+    the float inputs (F = 0 at or below tol is a proved property: `raven.haptic_force`)."""
+    on = finite & (ndp > tol)
+    near = finite & (np.abs(ndp - tol) <= TIE_BAND * tol)
+    if not near.any():
+        return on
+    pm_b, pr_b = np.broadcast_arrays(pm, pr)
+    shape = np.shape(on)
+    on, near = on.reshape(-1).copy(), near.reshape(-1)
+    pm_b, pr_b = pm_b.reshape(-1, 3), pr_b.reshape(-1, 3)
+    bound = Fraction(tol) ** 2
+    for i in np.flatnonzero(near):
+        on[i] = sum((Fraction(a) - Fraction(b)) ** 2 for a, b in zip(pm_b[i], pr_b[i])) > bound
+    return on.reshape(shape)
 
 
 def residual(e, e_previous) -> np.ndarray:
