@@ -238,7 +238,9 @@ CL_INLINE cl_real cl_div(cl_real a, cl_real b, int careful)
 CL_INLINE cl_real cl_sqrt_body(cl_real a, int careful)
 {
     double v = sqrt(a.v), e, lo, ea = cl_bound(a);
-    if (careful && a.exact && v >= CL_EFT_MIN && fma(v, v, -a.v) == 0.0)
+    /* a = v v exactly: the residual a - v v is a multiple of about 2^-105 a, representable
+       (not lost to underflow) only when a >= 2^-900, as for the quotient */
+    if (careful && a.exact && a.v >= CL_EFT_MIN && v >= CL_EFT_MIN && fma(v, v, -a.v) == 0.0)
         return cl_exact(v);
     e = fabs(v) * CL_U + CL_ETA;
     if (!a.exact) {
