@@ -58,11 +58,15 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run MODEL(s) in the interpreter on initial states, choices and durations that "
         "hypothesis draws and steers towards small safety margins, until a run violates the "
         "guarantee; the run is shrunk, re-checked, printed and optionally plotted. Exit 0 if no "
-        "counterexample was found, 1 if one was.")
-    falsify.add_argument("models", nargs="+", metavar="MODEL",
+        "counterexample was found, 1 if one was. The kernel scenarios rcm.push_euler, "
+        "rcm.push_guarded, rcm.push_semi_implicit, rcm.push_capsule and rcm.push_capsule_guarded "
+        "instead search a surgeon's push on seed 001's 7-DOF controller for one that enters the "
+        "forbidden region, confirmed by a brute-force replay.")
+    falsify.add_argument("models", nargs="+", metavar="MODEL",  # or kernel scenarios rcm.push_*
                          help="library name (sbs.eqn12) or path/to/file.py:theorem")
-    falsify.add_argument("--max-examples", metavar="N", type=int, default=2000,
-                         help="runs to try per model (default 2000)")
+    falsify.add_argument("--max-examples", metavar="N", type=int,
+                         help="runs to try per model (default 2000; for rcm.push_* scenarios: human-force "
+                         "profiles per search round, default 60)")
     falsify.add_argument("--seed", metavar="S", type=int, default=0, help="random seed (default 0)")
     falsify.add_argument("--json", metavar="F", help="write the result with the full trace as JSON to F "
                          "('-' for stdout)")
@@ -589,6 +593,10 @@ def cmd_extract(args: argparse.Namespace) -> int:
 
 
 def _check_falsify_args(args: argparse.Namespace) -> None:
+    if args.max_examples is None:
+        from certiloop.proofs.cli.push_cmd import is_push_scenario
+
+        args.max_examples = 60 if any(is_push_scenario(n) for n in args.models) else 2000
     if args.max_examples < 1:
         raise BadInput(f"--max-examples must be at least 1, got {args.max_examples}")
     if args.max_family < 1:
@@ -606,6 +614,20 @@ def _check_falsify_args(args: argparse.Namespace) -> None:
 
 def cmd_falsify(args: argparse.Namespace) -> int:
     _check_falsify_args(args)
+    from certiloop.proofs.cli import push_cmd
+
+    pushes = [push_cmd.is_push_scenario(n) for n in args.models]
+    if any(pushes):
+        if not all(pushes):
+            raise BadInput("kernel scenarios (rcm.push_*) and models cannot be falsified in one call")
+        from certiloop.proofs.cli import ui
+
+        try:
+            code, docs = push_cmd.run(args, console(stderr=args.json == "-"), ui.verbosity(args))
+        except ValueError as exc:
+            raise BadInput(str(exc)) from None
+        _write_json(args.json, _json_payload(docs, len(docs)))
+        return code
     from certiloop.proofs.cli.loading import load_all
 
     theorems = load_all(args.models)
