@@ -11,6 +11,14 @@ original (median over layers; shapely computes the areas here, never in the kern
 as many cells everywhere and strictly more in R1; at least one query succeeds only with the
 modified region (its plan accepted by the checker); none succeeds only with the original.
 Writes benchmarks/results/cfmpa.json.
+
+--soundness [--samples 20000] (the spec's B4) samples, for each scene and Δt, instants inside
+free cells -- the principal on its planned motion at (k + λ)Δt, the subordinate anywhere on a
+king move out of the cell at the same instant -- and counts the samples whose link polygons
+(shapely, exact) meet, for the original and the modified database, and along the planned
+paths of the queries (the subordinate between consecutive cells of its plan). Every count
+must be 0 (exit 1 otherwise); a control row samples occupied cells the same way and must find
+collisions (else the check is blind). Writes benchmarks/results/cfmpa_soundness.json.
 """
 
 from __future__ import annotations
@@ -102,6 +110,51 @@ def run(name: str, dt: float, repeats: int, count: int, seed: int) -> dict:
             "swept_ratio": swept_ratio(scene)}
 
 
+def _collide(scene, principal, subordinate) -> bool:
+    from shapely.geometry import Polygon
+
+    a = [Polygon(x) for x in static_arm(scene.principal, principal)]
+    b = [Polygon(x) for x in static_arm(scene.subordinate, subordinate)]
+    return any(x.intersects(y) for x in a for y in b)
+
+
+def soundness(name: str, dt: float, samples: int, count: int, seed: int) -> list[dict]:
+    """B4: collisions among `samples` instants in free cells per database, and along plans."""
+    scene = scene_for(name, dt)
+    rng = np.random.default_rng(seed)
+    h1, h2 = scene.steps
+    rows = []
+    for mode, occupied in (("original", 0), ("modified", 0), ("modified, occupied cells (control)", 1)):
+        P = builtdr(scene, mode.split(",")[0])
+        cells = np.argwhere(P == occupied)
+        hits = 0
+        for k, i, j in cells[rng.integers(len(cells), size=samples)] if len(cells) else []:
+            lam = rng.uniform()
+            r1, r2 = scene.cell_angles(i, j)
+            di, dj = rng.integers(-1, 2, size=2)
+            sub = (r1 + di * h1 * lam, r2 + dj * h2 * lam)
+            hits += _collide(scene, scene.planned_pose((k + lam) * dt), sub)
+        rows.append({"scene": name, "dt": dt, "variant": mode, "samples": samples if len(cells) else 0,
+                     "collisions": int(hits)})
+    P = builtdr(scene, "modified")
+    m, n = P.shape[1:]
+    hits = checked = 0
+    plans = [plan(P, start, goal) for start, goal in queries(P, count, seed)]
+    paths = [r.path for r in plans if r.ok]
+    for _ in range(samples if paths else 0):
+        path = paths[int(rng.integers(len(paths)))]
+        k = int(rng.integers(P.shape[0]))
+        lam = rng.uniform()
+        (i0, j0), (i1, j1) = path[min(k, len(path) - 1)], path[min(k + 1, len(path) - 1)]
+        di, dj = (i1 - i0 + 1) % m - 1, (j1 - j0 + 1) % n - 1  # king moves wrap around the grid
+        r1, r2 = scene.cell_angles(i0, j0)
+        hits += _collide(scene, scene.planned_pose((k + lam) * dt), (r1 + di * h1 * lam, r2 + dj * h2 * lam))
+        checked += 1
+    rows.append({"scene": name, "dt": dt, "variant": f"planned ({len(paths)} plans)", "samples": checked,
+                 "collisions": int(hits)})
+    return rows
+
+
 def check(rows: list[dict]) -> list[str]:
     problems = []
     for r in rows:
@@ -126,6 +179,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--check", action="store_true", help="exit 1 unless the paper's claims hold")
     ap.add_argument("--plot", type=Path, metavar="DIR", help="also plot the occupancy layers (plot_cfmpa.py)")
+    ap.add_argument("--soundness", action="store_true", help="B4: count collisions at sampled instants")
+    ap.add_argument("--samples", type=int, default=20_000, help="--soundness samples per variant")
     args = ap.parse_args(argv)
     if any(not 0 < dt < 1.5 for dt in args.dt):
         ap.error("--dt must lie in (0, 1.5)")
@@ -136,6 +191,16 @@ def main(argv: list[str] | None = None) -> int:
             for dt in args.dt:
                 for path in plot_layers(scene_for(name, dt), name, args.plot):
                     print(f"wrote {path}")
+    if args.soundness:
+        rows = [r for s in args.scene for dt in args.dt for r in soundness(s, dt, args.samples, args.queries,
+                                                                           args.seed)]
+        record("cfmpa_soundness", rows)
+        bad = [r for r in rows if r["collisions"] and "control" not in r["variant"]]
+        blind = not any(r["collisions"] for r in rows if "control" in r["variant"])
+        print("no collision in free cells or along plans" if not bad else f"{len(bad)} variant(s) collide")
+        if blind:
+            print("the control found no collision in occupied cells either: the check sees nothing")
+        return 1 if bad or blind else 0
     rows = [run(s, dt, args.repeats, args.queries, args.seed) for s in args.scene for dt in args.dt]
     record("cfmpa", rows)
     if args.check:
