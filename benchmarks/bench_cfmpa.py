@@ -19,6 +19,10 @@ king move out of the cell at the same instant -- and counts the samples whose li
 paths of the queries (the subordinate between consecutive cells of its plan). Every count
 must be 0 (exit 1 otherwise); a control row samples occupied cells the same way and must find
 collisions (else the check is blind). Writes benchmarks/results/cfmpa_soundness.json.
+
+--ompl (the spec's B5, optional extra certiloop[plan]): OMPL's RRTConnect and FMT* on the same
+scenes in the combined 4-D joint space, see cfmpa_ompl.py; without OMPL one "skipped" row.
+Writes benchmarks/results/cfmpa_ompl.json.
 """
 
 from __future__ import annotations
@@ -180,6 +184,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--check", action="store_true", help="exit 1 unless the paper's claims hold")
     ap.add_argument("--plot", type=Path, metavar="DIR", help="also plot the occupancy layers (plot_cfmpa.py)")
     ap.add_argument("--soundness", action="store_true", help="B4: count collisions at sampled instants")
+    ap.add_argument("--ompl", action="store_true", help="B5: OMPL in the combined 4-D space (cfmpa_ompl.py)")
     ap.add_argument("--samples", type=int, default=20_000, help="--soundness samples per variant")
     args = ap.parse_args(argv)
     if any(not 0 < dt < 1.5 for dt in args.dt):
@@ -191,6 +196,14 @@ def main(argv: list[str] | None = None) -> int:
             for dt in args.dt:
                 for path in plot_layers(scene_for(name, dt), name, args.plot):
                     print(f"wrote {path}")
+    if args.ompl:
+        from cfmpa_ompl import rows as ompl_rows
+
+        rows = [r for dt in args.dt for r in ompl_rows(
+            {s: scene_for(s, dt) for s in args.scene},
+            lambda scene: queries(builtdr(scene, "modified"), 1, args.seed), dt)]
+        record("cfmpa_ompl", rows)
+        return 0
     if args.soundness:
         rows = [r for s in args.scene for dt in args.dt for r in soundness(s, dt, args.samples, args.queries,
                                                                            args.seed)]

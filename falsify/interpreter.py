@@ -321,7 +321,10 @@ class Interpreter:
             return [first, not first]
         if sort == INT:
             solved = self._solve(need.key, s, cond)
-            return [solved] if solved is not None else [self.chooser.integer(what, -2, 8)]
+            if solved is not None:
+                return [solved]
+            lo, hi = self._int_bounds(need.key, s, cond)
+            return [self.chooser.integer(what, lo, hi)]
         if sort.is_numeric:
             solved = self._solve(need.key, s, cond)
             if solved is not None:
@@ -330,6 +333,44 @@ class Interpreter:
         elements = list(universe(s, sort))
         first = self.chooser.pick(what, len(elements))
         return elements[first:] + elements[:first]
+
+    def _int_bounds(self, key, s: dict[str, Any], cond: Node | None) -> tuple[int, int]:
+        """Where to draw an open Int: [-2, 8], narrowed by the test's bounds on it that are known
+        now (`0 <= k & k < N` with N set: [0, N - 1]), so a havoc followed by a range test is not
+        rejected most of the time. Only where the draw comes from; the test is still checked."""
+        lo, hi = -2, 8
+        if cond is None or not isinstance(key, str):
+            return lo, hi
+        found_lo = found_hi = None
+        for atom in _conjuncts(cond):
+            if atom.op != "cmp" or atom.payload not in ("<", "<=", ">", ">="):
+                continue
+            left, right = atom.args
+            op = atom.payload
+            if right.op == "var" and right.payload == key:  # a < k reads as k > a
+                left, right, op = right, left, {"<": ">", "<=": ">=", ">": "<", ">=": "<="}[op]
+            if left.op != "var" or left.payload != key:
+                continue
+            try:
+                bound = self.c(right)(s)
+            except (NeedValue, Blocked, ArithmeticError):
+                continue
+            if not isinstance(bound, (int, Fraction)) and not float(bound).is_integer():
+                continue
+            b = int(bound)
+            if op in (">", ">="):
+                b += op == ">"
+                found_lo = b if found_lo is None else max(found_lo, b)
+            else:
+                b -= op == "<"
+                found_hi = b if found_hi is None else min(found_hi, b)
+        if found_lo is not None and found_hi is not None and found_lo <= found_hi:
+            return found_lo, found_hi
+        if found_lo is not None:
+            return found_lo, found_lo + 10
+        if found_hi is not None:
+            return found_hi - 10, found_hi
+        return lo, hi
 
     def _solve(self, key, s: dict[str, Any], cond: Node | None):
         """The value of `key` that an equation of the test pins down, if it is linear in it."""

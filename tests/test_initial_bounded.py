@@ -48,3 +48,26 @@ def test_path_assumptions_are_met_by_repair_and_really_hold():
         kept += 1
         assert _is_path_with_free_elements(state)
     assert kept >= 40  # before the bounded ∀ was instantiated, about 2 in 100 were kept
+
+
+def test_a_havoc_followed_by_a_range_test_is_drawn_inside_the_range():
+    """`k := *; ?(0 <= k < N)`: the open k is drawn within the bounds the test puts on it (with
+    N already set), not from the default [-2, 8], so such a run is rarely blocked, and the draw
+    still covers the whole range: every k in [0, N - 1] comes up (checked here by hand)."""
+    from certiloop.falsify.evaluate import Blocked
+    from certiloop.models import Ints, Theorem, havoc, seq, test
+
+    k, N = Ints("k N")
+    theorem = Theorem("range", N == 12, seq(havoc(k), test((0 <= k) & (k < N))), k < N - 1)
+    interp = Interpreter(theorem)
+    seen, blocked = set(), 0
+    for seed in range(300):
+        try:
+            run = interp.run(RandomChooser(seed))
+        except Blocked:
+            blocked += 1
+            continue
+        k_value = int(run.checkpoints[-1].state["k"])
+        assert 0 <= k_value < 12  # the test held: the interpreter checked it, and so do we
+        seen.add(k_value)
+    assert blocked == 0 and seen == set(range(12))  # [-2, 8] would miss 9, 10 and 11
