@@ -42,6 +42,7 @@ def test_haptic_only_crosses_exit_1_and_names_the_run(tmp_path, capsys):
     assert rec.crossings == 1 and rec.min_distance[0] == first["min_distance"]
 
 
+@pytest.mark.slow  # 32 s of the Raven arm at 1 kHz, twice: about 14 s
 def test_paper_schedule_all_four_windows_alarm_and_nothing_else(tmp_path):
     json_file, csv_file = tmp_path / "p.json", tmp_path / "p.csv"
     assert campaign("raven.paper", "-q", "--json", str(json_file), "--csv", str(csv_file)) == 0
@@ -66,11 +67,13 @@ def test_csv_is_byte_identical_for_the_same_seed_and_agrees_with_the_json(tmp_pa
 
 
 def test_batching_does_not_change_a_run():
-    """50 random faults stepped together, in batches of 7, and one run at a time: equal rows."""
+    """50 random faults stepped together, in batches of 7, and 12 of them one run at a time:
+    equal rows."""
     setup = SETUPS["raven.haptic_only"]
     whole = run_setup(setup, runs=50, seed=5, ticks=600, batch=50)
     assert run_setup(setup, runs=50, seed=5, ticks=600, batch=7) == whole
-    assert run_setup(setup, runs=50, seed=5, ticks=600, batch=1) == whole
+    # one at a time: a run depends only on its seed, so the first 12 are the first 12 rows
+    assert run_setup(setup, runs=12, seed=5, ticks=600, batch=1) == whole[:12]
     assert summarize(whole)["runs"] == 50 and len({r["kind"] for r in whole}) >= 5
 
 
