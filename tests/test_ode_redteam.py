@@ -118,13 +118,13 @@ def test_false_near_miss_is_not_proved(name):
 def test_loop_around_an_ode_that_loses_the_claim():
     # (x' = -1)* from x = 1: after one run of length 2, x = -1 < 0 (explicit solution x = 1 - t)
     assert verdict(x == 1, loop(ode({x: -1})), x >= 0) != "proved"
-    assert 1 - 2.0 < 0
+    assert not holds_along(lambda x: [-1.0], [[1.0]], lambda x: x >= 0, 2.0)  # one run of the body
 
 
 def test_loop_with_a_wrong_invariant_annotation():
     # invariant x >= 0 is not kept by x' = -1 (x = x0 - t); the post is weaker than it
     assert verdict(x == 1, loop(ode({x: -1}), invariant=x >= 0), x >= -5) != "proved"
-    assert 1 - 10.0 < -5  # ten time units of flow from 1 reach -9
+    assert not holds_along(lambda x: [-1.0], [[1.0]], lambda x: x >= -5, 10.0)  # ten time units reach -9
 
 
 def test_time_dependent_rate_sign_change():
@@ -133,5 +133,5 @@ def test_time_dependent_rate_sign_change():
     t = Reals("t")[0]
     assert verdict(And(x == 1, t == 0), ode({x: (1 - t) * x, t: 1}), x > 0) == "proved"
     assert verdict(And(x == 1, t == 0), ode({x: 1 - t, t: 1}), x > 0) != "proved"
-    tc = 1 + math.sqrt(3)  # x(t) = 1 + t - t²/2 = 0
-    assert abs(1 + tc - tc * tc / 2) < 1e-12
+    assert holds_along(lambda x, t: [(1 - t) * x, 1.0], [[1.0, 0.0]], lambda x, t: x > 0, 3.0)
+    assert not holds_along(lambda x, t: [1 - t, 1.0], [[1.0, 0.0]], lambda x, t: x > 0, 3.0)  # 0 at 1 + √3
