@@ -156,41 +156,41 @@ def test_bad_scenes_are_refused():
 
 def _brute_force(P, start, goal, horizon):
     """Every walk of king moves through free cells with N <= len <= horizon, by depth-first
-    enumeration: the lexicographically least (J1, J2), or None."""
+    enumeration with branch and bound (a walk's (J1, J2) never decreases as it grows, so a
+    prefix already no cheaper than the best complete walk is cut): the lexicographically least
+    (J1, J2), or None. Costs are summed here move by move, independently of `costs`."""
     N, m, n = P.shape
     best = None
+    moves = sorted(itertools.product((-1, 0, 1), repeat=2), key=lambda d: abs(d[0]) + abs(d[1]))  # stay first
 
-    def go(path):
+    def go(length, cell, last, j1, j2):
         nonlocal best
-        k = len(path) - 1
-        i, j = path[-1]
-        if P[min(k, N - 1), i, j]:
+        if P[min(length - 1, N - 1), cell[0], cell[1]] or (best is not None and (j1, j2) >= best):
             return
-        if len(path) >= N and path[-1] == tuple(goal):
-            c = costs(path)
-            best = c if best is None or c < best else best
-        if len(path) == horizon:
+        if length >= N and cell == tuple(goal):
+            best = (j1, j2)
+        if length == horizon:
             return
-        for di, dj in itertools.product((-1, 0, 1), repeat=2):
-            ni, nj = i + di, j + dj
+        for di, dj in moves:
+            ni, nj = cell[0] + di, cell[1] + dj
             if 0 <= ni < m and 0 <= nj < n:
-                go(path + [(ni, nj)])
+                go(length + 1, (ni, nj), (di, dj), j1 + abs(di) + abs(dj),
+                   j2 + abs(di - last[0]) + abs(dj - last[1]))
 
-    go([tuple(start)])
+    go(1, tuple(start), (0, 0), 0, 0)
     return best
 
 
-# grids up to 3 x 3 x 3 with horizon N + 4 (the spec's 4 x 4, N + 6 makes the exhaustive walk
-# enumeration take minutes: up to 9^9 walks); the spec's >= 500 instances in the slow set
+# the spec's grids: m, n, N <= 4 with horizon N + 6; the spec's >= 500 instances in the slow set
 @settings(max_examples=120)
-@given(st.integers(1, 3), st.integers(1, 3), st.integers(1, 3), st.floats(0, 0.6), st.integers(0, 2**32 - 1))
+@given(st.integers(1, 4), st.integers(1, 4), st.integers(1, 4), st.floats(0, 0.6), st.integers(0, 2**32 - 1))
 def test_planner_matches_brute_force(N, m, n, density, seed):
     _planner_matches_brute_force(N, m, n, density, seed)
 
 
 @pytest.mark.slow
 @settings(max_examples=500)
-@given(st.integers(1, 3), st.integers(1, 3), st.integers(1, 3), st.floats(0, 0.6), st.integers(0, 2**32 - 1))
+@given(st.integers(1, 4), st.integers(1, 4), st.integers(1, 4), st.floats(0, 0.6), st.integers(0, 2**32 - 1))
 def test_planner_matches_brute_force_500(N, m, n, density, seed):
     _planner_matches_brute_force(N, m, n, density, seed)
 
@@ -200,7 +200,7 @@ def _planner_matches_brute_force(N, m, n, density, seed):
     P = (rng.uniform(size=(N, m, n)) < density).astype(np.uint8)
     start = (int(rng.integers(m)), int(rng.integers(n)))
     goal = (int(rng.integers(m)), int(rng.integers(n)))
-    horizon = N + 4
+    horizon = N + 6
     brute = _brute_force(P, start, goal, horizon)
     got = plan(P, start, goal)
     if got.ok:
