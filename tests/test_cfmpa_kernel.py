@@ -177,21 +177,23 @@ def _brute_force(P, start, goal, horizon):
                 go(length + 1, (ni, nj), (di, dj), j1 + abs(di) + abs(dj),
                    j2 + abs(di - last[0]) + abs(dj - last[1]))
 
+    if P[N - 1, goal[0], goal[1]]:  # the last element of a walk with len >= N is checked in layer N - 1
+        return None
     go(1, tuple(start), (0, 0), 0, 0)
     return best
 
 
-# the spec's grids: m, n, N <= 4 with horizon N + 6; the spec's >= 500 instances in the slow set
-@settings(max_examples=120)
+# the spec's grids and instances: m, n, N <= 4 with horizon N + 6, >= 500 instances (3,000 in the slow set)
+@settings(max_examples=500)
 @given(st.integers(1, 4), st.integers(1, 4), st.integers(1, 4), st.floats(0, 0.6), st.integers(0, 2**32 - 1))
 def test_planner_matches_brute_force(N, m, n, density, seed):
     _planner_matches_brute_force(N, m, n, density, seed)
 
 
 @pytest.mark.slow
-@settings(max_examples=500)
+@settings(max_examples=3000)
 @given(st.integers(1, 4), st.integers(1, 4), st.integers(1, 4), st.floats(0, 0.6), st.integers(0, 2**32 - 1))
-def test_planner_matches_brute_force_500(N, m, n, density, seed):
+def test_planner_matches_brute_force_3000(N, m, n, density, seed):
     _planner_matches_brute_force(N, m, n, density, seed)
 
 
