@@ -247,6 +247,21 @@ def test_a_rule_the_engine_lacks_is_bad_input_naming_the_entry():
     assert code == 2 and err.startswith(f"certiloop: error: {name}: differential invariant"), err
 
 
+def test_a_guarded_differential_invariant_is_proved():
+    """`v'=0 -> x=old(x)` (KeYmaera X's STTT tutorial style): v' reads as the right-hand
+    side, and a condition constant along the flow guards the atom."""
+    text = """ArchiveEntry "guarded"
+      ProgramVariables Real x; Real v; Real a; Real x0; End.
+      Problem v = 0 & x = x0 -> [ {x' = v, v' = a}@invariant(v' = 0 -> v = old(v), v' = 0 -> x = x0) ]
+                                   (a = 0 -> x = x0) End.
+    End."""
+    from certiloop.proofs.engine.prover import Prover
+
+    (entry,) = read_entries(text)
+    with Prover(jobs=1) as prover:
+        assert prover.prove(entry.theorem).verdict == "proved"
+
+
 def test_list_gate_and_falsify_accept_archives():
     code, out, _ = run("list", str(INVALID), "--json")
     assert code == 0

@@ -14,12 +14,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from certiloop.models import And, Reals, Theorem, ode
+from certiloop.models import And, Implies, Reals, Theorem, ode
+from certiloop.models.lang.terms import ModelError
 from certiloop.proofs.core.odes import OdeStep, atom_premise, cofactors, darboux_identity
+from certiloop.proofs.core.solver import check_valid
 from certiloop.proofs.core.vcgen import generate
 from certiloop.proofs.engine import Prover
 
-x, y, z, g, a, b, c = Reals("x y z g a b c")
+x, y, z, g, a, b, c, w, t, x0 = Reals("x y z g a b c w t x0")
 
 
 def verdict(pre, program, post) -> str:
@@ -71,8 +73,49 @@ def test_quotient_cofactor_leaves_the_remainder_to_prove():
 def test_rules_refuse_what_they_cannot_prove_soundly():
     with pytest.raises(ValueError):
         atom_premise(x >= 0, ode({x: -x}), "barrier")  # p = 0 -> p' > 0 does not show p >= 0
-    with pytest.raises(ValueError):
-        atom_premise(x > 0, ode({x: -x}), "dbx", -1 / y)  # a cofactor must be continuous
+    # a rational cofactor must be continuous along the flow: its premise demands y != 0
+    premise = atom_premise(x > 0, ode({x: -x}), "dbx", -1 / y)
+    assert "y != 0" in str(premise) and check_valid(premise, 1_000_000).status != "unsat"
+
+
+def test_rational_cofactor_with_a_vanishing_denominator_proves_nothing():
+    """x' = 1 from x = 0 leaves 0 at once, yet p' = (1/x) p is an identity away from x = 0:
+    the premise must demand x != 0 where the flow runs, which nothing gives."""
+    rise = ode({x: 1})
+    premise = atom_premise(x == 0, rise, "dbx", 1 / x)
+    assert check_valid(premise, 1_000_000).status != "unsat"
+    obs = generate(Theorem("t", x == 0, rise, x == 0), {rise.key: (OdeStep(x == 0, "dbx", 1 / x),)})
+    with Prover(jobs=1) as p:
+        assert any(r.verdict != "proved" for r in p._discharge(obs, None, p.budget))
+
+
+def test_rational_darboux_is_found_modulo_the_domain_and_witnessed():
+    """x' = (x w - x)/z^2 with the domain's w = y z (kept by w' = y, z' = 1): p' = g p for
+    p = x only where the domain holds, with the rational g = (y z - 1)/z^2; found
+    automatically (no annotation), proved, and checked by integration; the near miss
+    x' = (x w - 1)/z^2 is not proved and really crosses 0."""
+    start = And(x > 0, z > 0, w == y * z)
+    grow = ode({x: (x * w - x) / z**2, w: y, z: 1}, And(w == y * z, z > 0))
+    assert verdict(start, grow, x > 0) == "proved"
+    near_miss = ode({x: (x * w - 1) / z**2, w: y, z: 1}, And(w == y * z, z > 0))
+    assert verdict(start, near_miss, x > 0) != "proved"
+    y0 = -3.0  # x, w, z from (1/2, y0, 1): w = y z holds at the start and along the flow
+    assert holds_along(lambda x, w, z: [(x * w - x) / z**2, y0, 1], [[0.5, y0, 1.0]], lambda x, w, z: x > 0)
+    assert not holds_along(lambda x, w, z: [(x * w - 1) / z**2, 0.0, 1], [[0.5, 0.0, 1.0]],
+                           lambda x, w, z: x > 0)
+
+
+def test_guarded_invariant_with_a_constant_condition():
+    """`a = 0 -> x = x0` is proved as x = x0 under a = 0 (a is constant along the flow); a
+    condition on a variable the flow changes is refused; a false guarded atom is not proved."""
+    drive = ode({x: a, t: 1}, invariants=[Implies(a == 0, x == x0), t >= 0])
+    assert verdict(And(x == x0, t == 0), drive, Implies(a == 0, x == x0)) == "proved"
+    moving = ode({x: a, t: 1}, invariants=[Implies(t == 0, x == x0)])
+    with pytest.raises(ModelError, match="constant along the flow"):
+        generate(Theorem("t", x == x0, moving, x == x0))
+    wrong = ode({x: a - 1, t: 1}, invariants=[Implies(a >= 0, x >= x0)])
+    assert verdict(x == x0, wrong, Implies(a >= 0, x >= x0)) != "proved"
+    assert not holds_along(lambda x, t: [0 - 1, 1], [[0.0, 0.0]], lambda x, t: x >= 0, 1.0)  # a = 0
 
 
 def test_domain_is_assumed_where_the_flow_starts():

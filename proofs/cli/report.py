@@ -129,7 +129,8 @@ def show_cross_check(console: Console, check: dict) -> None:
 
 def show_refutation(console: Console, result: TheoremResult) -> None:
     ref = result.refutation
-    console.print(f"  [bold red]counterexample run[/] (checked with {ref.check}):")
+    what = "state" if ref.depth == 0 and not ref.trace else "run"
+    console.print(f"  [bold red]counterexample {what}[/] (checked with {ref.check}):")
     ui.say(console, "    start: " + ", ".join(f"{k} = {v}" for k, v in ref.initial.items()))
     if ref.frame:
         ui.say(console, "    at the start: " + ", ".join(f"{k} is {v}" for k, v in ref.frame.items()))

@@ -12,6 +12,7 @@ import sympy
 
 from certiloop.models.lang.programs import ODE
 from certiloop.models.lang.terms import (
+    MODALITIES,
     TRUE,
     And,
     ForAll,
@@ -22,6 +23,7 @@ from certiloop.models.lang.terms import (
     Real,
     cmp,
     const,
+    free_vars,
     substitute,
 )
 from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
@@ -184,6 +186,10 @@ def solvable(ode: ODE) -> bool:
 #            (Darboux: (p*exp(-∫g))' = (p' - g*p)*exp(-∫g), so the sign of p never changes;
 #            when p' - g*p is identically 0 the premise is decided here, exactly, by sympy)
 #   barrier  p = 0 -> p' > 0, for > only (p > 0 until a first zero, where p' <= 0)
+# An atom may be guarded, `C -> a op b`, when C does not mention the ODE's variables: C is
+# then constant along the flow, so the guarded atom is proved by proving `a op b` under C
+# (premise `C -> premise`; where C is false the atom holds throughout). KeYmaera X's
+# `v'=0 -> v=old(v)` annotations are of this kind once v' is read as its right-hand side.
 
 METHODS = ("dI", "dbx", "barrier")
 
@@ -207,8 +213,20 @@ def default_chain(ode: ODE) -> tuple[OdeStep, ...]:
     return tuple(steps)
 
 
+def _modal(f: Node) -> bool:
+    return f.op in MODALITIES or any(_modal(a) for a in f.args)
+
+
+def guarded(atom: Node) -> tuple[Node | None, Node]:
+    """(C, a) for a guarded atom `C -> a`, else (None, atom)."""
+    if atom.op == "implies":
+        return atom.args[0], atom.args[1]
+    return None, atom
+
+
 def atom_polynomial(atom: Node) -> tuple[Node, str]:
-    """(p, op) with the atom equivalent to `p op 0`, op in >=, >, ==, !=."""
+    """(p, op) with the (guarded) atom's comparison equivalent to `p op 0`, op in >=, >, ==, !=."""
+    atom = guarded(atom)[1]
     if atom.op != "cmp":
         raise ModelError(f"differential invariant `{atom}` must be a conjunction of comparisons")
     a, b = atom.args
@@ -224,6 +242,8 @@ def conjuncts(f: Node) -> tuple[Node, ...]:
         return tuple(x for a in f.args for x in conjuncts(a))
     if f.op == "true":
         return ()
+    if f.op == "implies" and f.args[1].op == "and":  # C -> a & b: a guarded atom each
+        return tuple(Implies(f.args[0], x) for x in conjuncts(f.args[1]))
     return (f,)
 
 
@@ -268,13 +288,23 @@ def darboux_identity(p: Node, g: Node, ode: ODE) -> bool:
 def atom_premise(atom: Node, ode: ODE, method: str, cofactor: Node | None = None) -> Node | None:
     """What `method` must show inside the domain (and after the earlier atoms) for the atom
     to be invariant; None when nothing is left to show (a Darboux identity, checked here)."""
+    guard, core = guarded(atom)
+    if guard is not None:
+        moving = set(free_vars(guard)) & {v.payload for v in ode.variables}
+        if moving or _modal(guard):
+            raise ModelError(f"differential invariant `{atom}`: its condition must stay constant along "
+                             f"the flow (it mentions {', '.join(sorted(moving)) or 'a modality'})")
+        inner = atom_premise(core, ode, method, cofactor)
+        return None if inner is None else Implies(guard, inner)
     p, op = atom_polynomial(atom)
     dp = lie_derivative(p, ode)
     if method == "dI":
         return cmp(">=" if op in (">=", ">") else "==", dp, 0)
     if method == "dbx":
-        if cofactor is None or has_division(cofactor) or not cofactor.sort.is_numeric:
-            raise ValueError(f"dbx for `{atom}` needs a polynomial cofactor, got {cofactor}")
+        if cofactor is None or not cofactor.sort.is_numeric:
+            raise ValueError(f"dbx for `{atom}` needs a cofactor term, got {cofactor}")
+        if has_division(cofactor):
+            return _rational_darboux_premise(p, dp, op, cofactor)
         if darboux_identity(p, cofactor, ode):
             return None
         table = SympyTable()
@@ -285,3 +315,52 @@ def atom_premise(atom: Node, ode: ODE, method: str, cofactor: Node | None = None
             raise ValueError(f"the barrier rule proves strict inequalities only, not `{atom}`")
         return Implies(cmp("==", p, 0), cmp(">", dp, 0))
     raise ValueError(f"unknown ODE rule {method!r}")
+
+
+def _rational_darboux_premise(p: Node, dp: Node, op: str, cofactor: Node) -> Node:
+    """dbx with a rational cofactor g = n/d: along a flow inside the region where d != 0, g is
+    continuous, so p' = g p (p' >= g p) still keeps p = 0 (the sign of p), as for a polynomial
+    g. The premise, free of division: d != 0, and p' - g p = N/D with D != 0 and N D = 0
+    (N D >= 0)."""
+    table = SympyTable()
+    g = sympy.cancel(sympy.together(to_sympy(cofactor, table)))
+    _, g_den = sympy.fraction(g)
+    rest = sympy.cancel(sympy.together(to_sympy(dp, table) - g * to_sympy(p, table)))
+    num, den = sympy.fraction(rest)
+    parts = [] if g_den.is_number else [cmp("!=", from_sympy(g_den, table), 0)]
+    if num != 0:
+        if not den.is_number:
+            parts.append(cmp("!=", from_sympy(den, table), 0))
+        parts.append(cmp(">=" if op in (">=", ">") else "==", from_sympy(sympy.expand(num * den), table), 0))
+    return And(*parts)
+
+
+def rational_cofactor(atom: Node, ode: ODE) -> Node | None:
+    """A guess n/d for dbx when p' is a rational function N/d: n is the quotient of N by p
+    modulo the domain's polynomial equalities (`y = x^2`), so p' = (n/d) p wherever the
+    domain holds. None when p' is a polynomial or there is no such quotient."""
+    p, _ = atom_polynomial(atom)
+    table = SympyTable()
+    ps = sympy.expand(to_sympy(p, table))
+    dp = sympy.cancel(sympy.together(to_sympy(lie_derivative(p, ode), table)))
+    num, den = sympy.fraction(dp)
+    if den.is_number or ps.is_number or not _polynomial_in(ps) or not _polynomial_in(num):
+        return None
+    num = sympy.expand(num)
+    for a in conjuncts(ode.domain):  # an equality `v = q` with v of degree 1: substitute q for v
+        if a.op != "cmp" or a.payload != "==" or not a.args[0].sort.is_numeric:
+            continue
+        e = sympy.expand(to_sympy(a.args[0] - a.args[1], table))
+        for v in sorted(e.free_symbols, key=str):
+            c = e.coeff(v, 1)
+            if c.is_number and c != 0 and sympy.degree(e, v) == 1:
+                num = sympy.expand(num.subs(v, -(e - c * v) / c))
+                break
+    gens = sorted(num.free_symbols | ps.free_symbols, key=str)
+    try:
+        quotient, remainder = sympy.div(num, ps, *gens, domain=sympy.QQ)
+    except sympy.polys.polyerrors.PolynomialError:
+        return None
+    if remainder != 0 or quotient == 0:
+        return None
+    return from_sympy(quotient / den, table)

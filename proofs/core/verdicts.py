@@ -85,7 +85,7 @@ def judge(ob_id: str, path: str, formula, answer: SolverAnswer, seconds: float) 
     if answer.model_falsifies:
         return ObligationResult(ob_id, path, "refuted", seconds, counterexample=cex,
                                 check="z3 model evaluation (quantified obligation)", raw_model=model)
-    return ObligationResult(ob_id, path, "unknown", seconds, counterexample=cex,
+    return ObligationResult(ob_id, path, "unknown", seconds, counterexample=cex, raw_model=model,
                             reason="z3 reported a counterexample that could not be confirmed")
 
 
@@ -100,10 +100,13 @@ class RunEvidence:
     replayed: bool  # the interpreter, run independently from the same start, violates the guarantee
     flows_confirmed: bool  # every closed-form flow agrees with a numerical integration
     detail: str = ""
+    # instead of a run: the claim's negation is proved at the counterexample state (a diamond,
+    # a modality or quantifier inside a formula; refute/negation.py)
+    negation_proved: bool = False
 
     @property
     def confirmed(self) -> bool:
-        return self.rechecked and self.replayed and self.flows_confirmed
+        return (self.rechecked and self.replayed and self.flows_confirmed) or self.negation_proved
 
 
 @dataclass
@@ -135,6 +138,8 @@ def decide_theorem(obligations: list[ObligationResult], run: RunEvidence | None,
                else f"it is not shown nonzero ({first.reason})")
         return Decision("unknown", f"ill-defined: {first.path}: a division in the claim itself, and {how}",
                         ill_defined=ill)
+    if confirmed and run.negation_proved:
+        return Decision("refuted", "the claim is false at the state shown: its negation is proved there")
     if confirmed:
         return Decision("refuted", "a run that violates the guarantee was found, re-checked exactly, "
                         "replayed and its flows confirmed")

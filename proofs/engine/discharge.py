@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from fractions import Fraction
 
 from certiloop.proofs.arith.projection import abbreviation_instances
 from certiloop.proofs.core.solver import check_valid
@@ -52,6 +53,6 @@ def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: b
     if res.verdict == "unknown" and projected_cex:
         res.reason = (f"{res.reason}; its projected form (abstracted) has a counterexample, "
                       "so it is probably false")
-    if not keep_model:
-        res.raw_model = None
+    if not keep_model and res.raw_model is not None:  # keep the exact plain values (no z3 handles)
+        res.raw_model = {k: v for k, v in res.raw_model.items() if isinstance(v, (bool, int, Fraction))}
     return res

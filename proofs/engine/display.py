@@ -42,7 +42,8 @@ def obligation_lines(data: dict[str, Any], limit: int = SHOWN_OBLIGATIONS) -> li
 def run_lines(counterexample: dict[str, Any], run_check: dict[str, Any] | None = None) -> list[str]:
     """A violating run (`"counterexample"` of the JSON) as the CLI prints it: the initial
     state, each statement with the values it changed, the violated guarantee."""
-    lines = [f"counterexample run (checked with {counterexample['check']}):",
+    what = "state" if counterexample.get("depth") == 0 and not counterexample["trace"] else "run"
+    lines = [f"counterexample {what} (checked with {counterexample['check']}):",
              "  start: " + _values(counterexample["initial"])]
     if counterexample.get("frame"):
         frame = counterexample["frame"].items()

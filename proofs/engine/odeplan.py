@@ -26,6 +26,7 @@ from certiloop.proofs.core.odes import (
     atom_premise,
     cofactors,
     conjuncts,
+    rational_cofactor,
     solvable,
 )
 from certiloop.proofs.core.vcgen import Obligation, generate
@@ -94,6 +95,9 @@ def rule_options(atom: Node, ode: ODE) -> list[OdeStep]:
     options = [OdeStep(atom)]
     if quotient is not None:
         options.append(OdeStep(atom, "dbx", quotient))
+    rational = rational_cofactor(atom, ode)
+    if rational is not None:
+        options.append(OdeStep(atom, "dbx", rational))
     if atom_polynomial(atom)[1] == ">":
         options.append(OdeStep(atom, "barrier"))
     return options

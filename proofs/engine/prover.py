@@ -14,7 +14,7 @@ from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.vacuity import nonblocking_obligations
 from certiloop.proofs.core.vcgen import Obligation, generate
-from certiloop.proofs.core.verdicts import ObligationResult, RunEvidence, decide_theorem
+from certiloop.proofs.core.verdicts import ObligationResult, RunEvidence, decide_theorem, readable
 from certiloop.proofs.engine.budget import PLAN_SHARE, QUICK_SHARE, Budget
 from certiloop.proofs.engine.discharge import discharge_one
 from certiloop.proofs.engine.odeplan import plan_odes
@@ -64,7 +64,8 @@ class TheoremResult:
             "counterexample": self.refutation.to_json() if self.refutation else None,
             "run_check": None if self.run is None else {
                 "rechecked": self.run.rechecked, "replayed": self.run.replayed,
-                "flows_confirmed": self.run.flows_confirmed, "detail": self.run.detail},
+                "flows_confirmed": self.run.flows_confirmed, "detail": self.run.detail,
+                "negation_proved": self.run.negation_proved},
             "ill_defined": self.ill_defined,
             "inconsistent": self.inconsistent,
             "obligations": [o.to_json() for o in self.obligations],
@@ -159,7 +160,19 @@ class Prover:
         """search=False only discharges the obligations: a theorem not proved is then
         'unknown', without the (costly) search for a violating run."""
         start = time.perf_counter()
-        obligations = generate(theorem)
+        try:
+            obligations = generate(theorem)
+        except ModelError as exc:
+            # no obligations (e.g. a flow without a polynomial solution inside a formula's
+            # modality): the claim may still be refuted at a small state by a proof
+            found = self._refute_by_negation(theorem, [], exc) if search else None
+            if found is None:
+                raise
+            refutation, evidence = found
+            reason = (f"the claim is false at the state shown: its negation is proved there "
+                      f"(its own obligations cannot be generated: {exc})")
+            return TheoremResult(theorem.name, "refuted", theorem.expected, time.perf_counter() - start, [],
+                                 reason, refutation, run=evidence)
         if on_start:
             on_start(len(obligations))
         if smtlib_dir is not None:
@@ -184,6 +197,11 @@ class Prover:
             if search and any(r.verdict != "proved" for r in results):
                 refutation, why = self._run(_refute_task, theorem, self.budget)
                 evidence = confirm_run(theorem, refutation) if refutation is not None else None
+        if search and not (evidence is not None and evidence.confirmed) and any(r.verdict != "proved"
+                                                                               for r in results):
+            found = self._refute_by_negation(theorem, results)
+            if found is not None:
+                refutation, evidence = found
         decision = decide_theorem(results, evidence, why)
         result = TheoremResult(theorem.name, decision.verdict, theorem.expected, 0.0, results,
                                decision.reason, refutation, run=evidence, ill_defined=decision.ill_defined,
@@ -192,6 +210,32 @@ class Prover:
             self._vacuity(theorem, result)
         result.seconds = time.perf_counter() - start
         return result
+
+    def _refute_by_negation(self, theorem: Theorem, results: list[ObligationResult],
+                            no_obligations: ModelError | None = None):
+        """(refutation, evidence) when the claim's negation is proved at the state of a failed
+        obligation's model or, when the theorem has no obligations, at a small state
+        (refute/negation.py), else None."""
+        from certiloop.proofs.refute.negation import candidates, negation_at, small_states
+        from certiloop.proofs.refute.search import Refutation
+
+        models = [r.raw_model for r in results if r.raw_model is not None and r.kind == "safety"]
+        states = small_states(theorem) if no_obligations is not None else candidates(theorem, models)
+        for state in states:
+            start = time.perf_counter()
+            try:
+                proofs = [self.prove(part, search=False) for part in negation_at(theorem, state)]
+            except ModelError:  # the negation has no obligations either
+                return None
+            if any(proof.verdict != "proved" for proof in proofs):
+                continue
+            shown = readable(state)
+            refutation = Refutation(0, shown, [], f"{theorem.guarantee} fails from this state",
+                                    "a proof of the negation", time.perf_counter() - start, dict(state))
+            detail = (f"not one run: the claim's negation at this state is proved "
+                      f"({sum(len(proof.obligations) for proof in proofs)} obligation(s))")
+            return refutation, RunEvidence(True, False, False, detail, negation_proved=True)
+        return None
 
     def _planned(self, theorem: Theorem, results: list[ObligationResult]) -> list[ObligationResult]:
         """When obligations are open, search ODE cut chains (automatic invariants, other
