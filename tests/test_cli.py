@@ -66,6 +66,15 @@ def test_smtlib_files_recheck_with_a_fresh_solver(tmp_path):
         assert solver.check() == z3.unsat, f.name  # unsat negation = valid obligation
 
 
+def test_smtlib_names_archive_entries_with_slashes_and_colons(tmp_path):
+    archive = tmp_path / "a.kyx"
+    archive.write_text('ArchiveEntry "Family/Sub: entry"\n ProgramVariables Real x; End.\n'
+                       ' Problem x >= 0 -> [x := x + 1;] x >= 0 End.\nEnd.\n')
+    code, _, err = run("prove", str(archive), "--smtlib", str(tmp_path / "smt"))
+    assert code == 0, err
+    assert [f.name for f in (tmp_path / "smt").iterdir()] == ["Family_Sub_entry.o1.smt2"]
+
+
 @pytest.mark.parametrize("args, message", [
     (["prove", "sbs.nope"], "unknown model 'sbs.nope'"),
     (["prove", "missing.py:thm"], "missing.py: no such file"),

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import re
 import time
 from concurrent.futures import Executor, Future, ProcessPoolExecutor
 from dataclasses import dataclass, field
@@ -333,4 +334,5 @@ def write_smtlib(model: str, obligations: list[Obligation], folder: Path) -> Non
     folder.mkdir(parents=True, exist_ok=True)
     for ob in obligations:
         text = script(ob.formula, f"certiloop obligation {model} {ob.id}: {ob.path}")
-        (folder / f"{model}.{ob.id}.smt2").write_text(text)
+        safe = re.sub(r"[^\w.+=-]+", "_", model).strip("_")  # an archive entry's name may hold / or :
+        (folder / f"{safe}.{ob.id}.smt2").write_text(text)
