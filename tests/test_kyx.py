@@ -262,6 +262,45 @@ def test_a_guarded_differential_invariant_is_proved():
         assert prover.prove(entry.theorem).verdict == "proved"
 
 
+MODAL_TESTS = """
+ArchiveEntry "no flow stays below m for ever"
+  ProgramVariables Real x; Real m; End.
+  Problem [ ?[{x' = 1}]x <= m; ] false End.
+End.
+ArchiveEntry "some flow reaches m"
+  ProgramVariables Real x; Real m; End.
+  Problem [ ?<{x' = 1}>x >= m; ] false End.
+End.
+ArchiveEntry "a braking check before each step"
+  ProgramVariables Real x; Real v; Real m; Real b; End.
+  Problem b > 0 & v >= 0 & [{x' = v, v' = -b}]x <= m
+    -> [ { { ?[{x' = v, v' = 1 & v >= 0}][{x' = v, v' = -b}]x <= m; ++ ?v = 0; }
+           {x' = v, v' = -b & v >= 0} }* @invariant([{x' = v, v' = -b}]x <= m) ] x <= m End.
+End.
+ArchiveEntry "a check that lets the car overshoot"
+  ProgramVariables Real x; Real v; Real m; End.
+  Problem v = 1 & x <= m -> [ { ?[x := x + 1;]x <= m + 1; x := x + 1; }* ] x <= m End.
+End.
+"""
+
+
+def test_tests_with_modalities_are_read_by_their_first_order_equivalent():
+    """`?[a]P` in a program (KeYmaera X's model-predictive checks): the test passes where the
+    expansion of [a]P holds. Never passing ([{x'=1}]x <= m is false everywhere) proves the
+    box of anything; always passing (<{x'=1}>x >= m) must not; a braking check proves its
+    car safe; a check that lets the car overshoot is never proved."""
+    from certiloop.proofs.engine.prover import Prover
+
+    verdicts = {}
+    with Prover(jobs=1) as prover:
+        for entry in read_entries(MODAL_TESTS):
+            verdicts[entry.name] = prover.prove(entry.theorem).verdict
+    overshoot = verdicts.pop("a check that lets the car overshoot")
+    assert verdicts == {"no flow stays below m for ever": "proved", "some flow reaches m": "refuted",
+                        "a braking check before each step": "proved"}
+    assert overshoot != "proved"
+
+
 def test_list_gate_and_falsify_accept_archives():
     code, out, _ = run("list", str(INVALID), "--json")
     assert code == 0

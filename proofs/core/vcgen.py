@@ -29,7 +29,6 @@ from certiloop.models.lang.terms import (
     REAL,
     And,
     Implies,
-    ModelError,
     Node,
     Var,
     store,
@@ -45,7 +44,7 @@ from certiloop.proofs.core.odes import (
     polynomial_solution,
 )
 from certiloop.proofs.core.wd import defined, has_division
-from certiloop.proofs.core.wp import expand_modalities, has_modality
+from certiloop.proofs.core.wp import expand_modalities
 
 
 @dataclass(frozen=True)
@@ -180,10 +179,8 @@ class VCGen:
             k(st.bind(self._write(st, p.target, self.names.fresh(_root(p.target).payload,
                                                                  p.target.sort, "chosen"))))
         elif isinstance(p, Test):
-            if has_modality(p.cond):
-                raise ModelError(f"test `?{p.cond}` must be first-order (no [.] or <.> inside)")
             self.require_defined(st, f"`{p}`", p.cond)
-            k(st.assume(st.value(p.cond)))
+            k(st.assume(st.value(expand_modalities(p.cond, self.names, positive=False))))
         elif isinstance(p, Seq):
             self._seq(p.parts, st, k)
         elif isinstance(p, Choice):

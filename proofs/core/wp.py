@@ -92,8 +92,8 @@ def box(p: Program, post: Node, names, quantify: bool = True, unsolvable: str = 
             record[id(p)] = fresh.payload
         body = substitute(post, _update(p.target, fresh))
         return ForAll(fresh, body) if quantify else body
-    if isinstance(p, Test):
-        return Implies(p.cond, post)
+    if isinstance(p, Test):  # a modal test (?[a]P) by its first-order equivalent
+        return Implies(expand_modalities(p.cond, names), post)
     if isinstance(p, Seq):
         for q in reversed(p.parts):
             post = again(q, post)
@@ -130,7 +130,7 @@ def diamond(p: Program, post: Node, names, unsolvable: str = "error", family_wit
         fresh = names.fresh(_root_name(p.target), p.target.sort, "chosen")
         return Exists(fresh, substitute(post, _update(p.target, fresh)))
     if isinstance(p, Test):
-        return And(p.cond, post)
+        return And(expand_modalities(p.cond, names), post)
     if isinstance(p, Seq):
         for q in reversed(p.parts):
             post = diamond(q, post, names, unsolvable, family_witnesses)

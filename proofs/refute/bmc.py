@@ -31,7 +31,7 @@ from certiloop.models.lang.terms import (
     substitute,
 )
 from certiloop.proofs.core.odes import holds_along
-from certiloop.proofs.core.wp import flow_solution
+from certiloop.proofs.core.wp import expand_modalities, flow_solution
 
 
 def _equal(a: Node, b: Node) -> Node:
@@ -79,8 +79,8 @@ class Encoder:
             new = store(val(target.args[0]), tuple(val(i) for i in idx), fresh)
             cs = []
             return cs, {**env, root.payload: self._bind(root.payload, root.sort, new, cs)}
-        if isinstance(p, Test):
-            return [val(p.cond)], env
+        if isinstance(p, Test):  # a modal test by its first-order equivalent, as the prover reads it
+            return [val(expand_modalities(p.cond, self.names))], env
         if isinstance(p, Seq):
             cs = []
             for q in p.parts:
