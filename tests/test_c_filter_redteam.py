@@ -212,3 +212,38 @@ def test_careful_sqrt_is_exact_only_when_it_is(tmp_path):
             lo, hi = Fraction(v) - Fraction(bound[0]), Fraction(v) + Fraction(bound[0])
             assert (lo <= 0 or lo * lo <= Fraction(a)) and hi * hi >= Fraction(a), (a, v, bound[0])
     assert lib.root_bound(9.0, bound) == 1 and lib.root_bound(0.25, bound) == 1  # true squares stay exact
+
+
+def test_family_range_test_in_integers_is_the_float_range_test(tmp_path):
+    """cl_range / cl_range_ok (the filter's range test on a family's elements, folded into the
+    loop over boundaries) accept exactly what cl_in_range accepts: 0 or a magnitude in
+    [2^-48, 2^48], on the edges and on NaN, infinities and subnormals, alone and in groups."""
+    import math
+
+    import cffi
+
+    from certiloop.kernel.extract.c_build import build
+    from certiloop.kernel.extract.c_certified import RUNTIME
+
+    source = ("#include <math.h>\n#include <stddef.h>\n" + RUNTIME + "\n"
+              "int by_float(const double *x, size_t n) { int r = 1; size_t i;"
+              " for (i = 0; i < n; i++) r &= cl_in_range(x[i]); return r; }\n"
+              "int by_bits(const double *x, size_t n) { uint64_t hi = 0, lo = ~(uint64_t)0; size_t i;"
+              " for (i = 0; i < n; i++) cl_range(x[i], &hi, &lo); return cl_range_ok(hi, lo); }\n")
+    library = build({"ranges.c": source}, tmp_path)
+    ffi = cffi.FFI()
+    ffi.cdef("int by_float(const double *x, size_t n); int by_bits(const double *x, size_t n);")
+    lib = ffi.dlopen(str(library))
+    edges = [0.0, 2.0 ** -48, 2.0 ** 48, 1.0, 3.5, 5e-324, 2.0 ** -1022, math.inf, math.nan,
+             1.7976931348623157e308]
+    values = [s * x for x in edges for s in (1, -1)]
+    values += [math.nextafter(2.0 ** -48, 0), math.nextafter(2.0 ** -48, 1), math.nextafter(2.0 ** 48, 0),
+               math.nextafter(2.0 ** 48, math.inf), -math.nextafter(2.0 ** -48, 0),
+               -math.nextafter(2.0 ** 48, 1e300)]
+    rng = np.random.default_rng(7)
+    groups = [[v] for v in values] + [list(rng.choice(values, size=6)) for _ in range(2000)]
+    for g in groups:
+        x = ffi.new("double[]", [float(v) for v in g])
+        assert lib.by_bits(x, len(g)) == lib.by_float(x, len(g)), g
+    assert lib.by_bits(ffi.new("double[]", [0.0, -0.0, 2.0 ** -48, -2.0 ** 48]), 4) == 1
+    assert lib.by_bits(ffi.new("double[]", [1.0, math.nextafter(2.0 ** -48, 0)]), 2) == 0

@@ -4,6 +4,8 @@
 
 #include "sbs_ctrl2.h"
 
+#include <stdint.h> /* uint64_t: the range test on a family's elements (cl_range) */
+
 /* ---- certified arithmetic: a value v with a bound on |v - x| for its real value x
    (certiloop.kernel.extract.c_certified; the C counterpart of certiloop.kernel.filtered) ----
    A value is STATIC (k >= 0: |v - x| <= k U m, m the term evaluated on magnitudes) or
@@ -38,6 +40,28 @@ CL_INLINE int cl_in_range(double x)
 {
     double a = fabs(x);
     return (a == 0.0) | ((a >= CL_LEAF_MIN) & (a <= CL_LEAF_MAX)); /* no branch: vectorised loops */
+}
+
+/* The same range test on a family's elements, inside the loop over them: each element's bits
+   with the sign shifted out, b, are 0 or in [bits(2^-48), bits(2^48)] (for numbers >= 0 the
+   bits order as the values; NaN and infinities lie above). Folded over a boundary's elements as
+   hi = max b (<= CL_LEAF_MAX_BITS) and lo = min (b - 1) in unsigned arithmetic (b = 0 wraps to
+   the largest value, so it passes; b in (0, CL_LEAF_MIN_BITS) fails): integer operations,
+   beside the floating-point work of the step. */
+#define CL_LEAF_MIN_BITS 0x79E0000000000000ULL /* the bits of CL_LEAF_MIN shifted up by one */
+#define CL_LEAF_MAX_BITS 0x85E0000000000000ULL /* the bits of CL_LEAF_MAX shifted up by one */
+CL_INLINE void cl_range(double x, uint64_t *hi, uint64_t *lo)
+{
+    union { double d; uint64_t u; } c;
+    uint64_t b;
+    c.d = x;
+    b = c.u << 1;
+    *hi = b > *hi ? b : *hi;
+    *lo = b - 1 < *lo ? b - 1 : *lo;
+}
+CL_INLINE int cl_range_ok(uint64_t hi, uint64_t lo)
+{
+    return (hi <= CL_LEAF_MAX_BITS) & (lo >= CL_LEAF_MIN_BITS - 1);
 }
 
 /* an input (the filter has checked its range), or a constant in range */
@@ -270,18 +294,6 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
     (void)cl_t;
     if (!careful) { /* inputs 0 or in [2^-48, 2^48], else the careful pass */
         int cl_r = cl_in_range(px) & cl_in_range(py) & cl_in_range(pz) & cl_in_range(fxp) & cl_in_range(fyp) & cl_in_range(fzp) & cl_in_range(fx) & cl_in_range(fy) & cl_in_range(fz) & cl_in_range(D) & cl_in_range(e) & cl_in_range(G);
-        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            cl_r &= cl_in_range(rx[cl_i]);
-        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            cl_r &= cl_in_range(nx[cl_i]);
-        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            cl_r &= cl_in_range(ry[cl_i]);
-        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            cl_r &= cl_in_range(ny[cl_i]);
-        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            cl_r &= cl_in_range(rz[cl_i]);
-        for (size_t cl_i = 0; cl_i < n_B; cl_i++)
-            cl_r &= cl_in_range(nz[cl_i]);
         if (!cl_r) return -2;
     } else { /* inputs finite, or outside the model's domain: no run */
         if (!(isfinite(px) && isfinite(py) && isfinite(pz) && isfinite(fxp) && isfinite(fyp) && isfinite(fzp) && isfinite(fx) && isfinite(fy) && isfinite(fz) && isfinite(D) && isfinite(e) && isfinite(G))) goto blocked;
@@ -313,6 +325,16 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
     (void)cl_px; (void)cl_py; (void)cl_pz; (void)cl_fxp; (void)cl_fyp; (void)cl_fzp; (void)cl_fx; (void)cl_fy; (void)cl_fz; (void)cl_D; (void)cl_e; (void)cl_G; /* some are only set */
     cl_real cl_k = cl_const(1.0);
     for (size_t i = 0; i < n_B; i++) { /* boundary loop */
+        if (!careful) { /* this boundary's inputs 0 or in [2^-48, 2^48] before the body reads them, else the careful pass */
+            uint64_t cl_hi = 0, cl_lo = ~(uint64_t)0;
+            cl_range(rx[i], &cl_hi, &cl_lo);
+            cl_range(nx[i], &cl_hi, &cl_lo);
+            cl_range(ry[i], &cl_hi, &cl_lo);
+            cl_range(ny[i], &cl_hi, &cl_lo);
+            cl_range(rz[i], &cl_hi, &cl_lo);
+            cl_range(nz[i], &cl_hi, &cl_lo);
+            if (!cl_range_ok(cl_hi, cl_lo)) return -2;
+        }
         cl_real cl_u = cl_const(1.0);
         cl_real cl_d0 = cl_add(cl_add(cl_mul(cl_add(cl_px, cl_neg(cl_exact(rx[i])), careful), cl_exact(nx[i]), careful), cl_mul(cl_add(cl_py, cl_neg(cl_exact(ry[i])), careful), cl_exact(ny[i]), careful), careful), cl_mul(cl_add(cl_pz, cl_neg(cl_exact(rz[i])), careful), cl_exact(nz[i]), careful), careful);
         cl_real cl_fnp = cl_add(cl_add(cl_mul(cl_fxp, cl_exact(nx[i]), careful), cl_mul(cl_fyp, cl_exact(ny[i]), careful), careful), cl_mul(cl_fzp, cl_exact(nz[i]), careful), careful);

@@ -43,12 +43,15 @@ static int check_inputs(const double p[3], const double f[3], const double fp[3]
     for (i = 0; i < n; i++) {
         double length2 = nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i];
         double d0 = distance(p, rx, ry, rz, nx, ny, nz, i);
-        if (!(isfinite(rx[i]) && isfinite(ry[i]) && isfinite(rz[i]) && isfinite(nx[i]) && isfinite(ny[i])
-              && isfinite(nz[i])))
+        /* a non-finite point or normal makes d0 or length2 non-finite (inf * 0 is NaN), so the
+           six tests run only where one of the two is not finite (it may also have overflowed) */
+        if (!(isfinite(d0) && isfinite(length2))
+            && !(isfinite(rx[i]) && isfinite(ry[i]) && isfinite(rz[i]) && isfinite(nx[i]) && isfinite(ny[i])
+                 && isfinite(nz[i])))
             return SBS_CTRL2_PLANE_NOT_FINITE;
         if (fabs(length2 - 1.0) > SBS_CTRL2_UNIT_TOLERANCE)
             worst = SBS_CTRL2_NORMAL_NOT_UNIT; /* outranks a distance */
-        if (d0 < -SBS_CTRL2_RELATIVE_TOLERANCE * (1 + fabs(d0)))
+        if (d0 < 0 && d0 < -SBS_CTRL2_RELATIVE_TOLERANCE * (1 + fabs(d0)))
             worst = worst == SBS_CTRL2_OK ? SBS_CTRL2_PAST_BOUNDARY : worst;
     }
     return worst;
@@ -81,14 +84,21 @@ static int check_command(double k, const double p[3], const double f[3], const d
         double d0 = distance(p, rx, ry, rz, nx, ny, nz, i);
         double fn = nx[i] * f[0] + ny[i] * f[1] + nz[i] * f[2];
         double fnp = nx[i] * fp[0] + ny[i] * fp[1] + nz[i] * fp[2];
-        double tol = SBS_CTRL2_RELATIVE_TOLERANCE * (1 + fabs(d0) + G * fabs(fn) * e + G * fabs(fnp) * e * e);
         double at_end = d0 + G * k * (fn * e + fnp * e * e / 2);
-        double at_vertex = INFINITY;
-        double vertex_t = fnp > 0 ? -fn / fnp : -1.0;
-        if (vertex_t > 0 && vertex_t < e)
-            at_vertex = d0 + G * k * (fn * vertex_t + fnp * (vertex_t * vertex_t) / 2);
-        if (min_keep_nan(min_keep_nan(d0, at_end), at_vertex) < -tol)
-            return SBS_CTRL2_COMMAND;
+        double lowest = min_keep_nan(d0, at_end);
+        /* the vertex -fn/fnp is > 0 only where fnp > 0 and fn < 0 (else it is <= 0 or NaN) */
+        if (fnp > 0 && fn < 0) {
+            double vertex_t = -fn / fnp;
+            if (vertex_t > 0 && vertex_t < e)
+                lowest = min_keep_nan(lowest, d0 + G * k * (fn * vertex_t + fnp * (vertex_t * vertex_t) / 2));
+        }
+        /* the tolerance is >= 0 (or NaN): a lowest point >= 0 passes without it */
+        if (!(lowest >= 0)) {
+            double tol = SBS_CTRL2_RELATIVE_TOLERANCE * (1 + fabs(d0) + G * fabs(fn) * e
+                                                         + G * fabs(fnp) * e * e);
+            if (lowest < -tol)
+                return SBS_CTRL2_COMMAND;
+        }
     }
     return SBS_CTRL2_OK;
 }

@@ -90,13 +90,26 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
             "    int cl_t = 0;", "    (void)cl_t;"]
     reals = [v for v, s in params.items() if s == REAL]
     real_families = [v for v, s in families.items() if s.range == REAL]
+    # families read only inside foreach loops are range-checked there, element by element, before
+    # the loop's body reads them (see below); read elsewhere too, here, before the step
+    in_loops = bool(real_families) and not scalar_shape and not em.outside_reads and bool(em.loop_heads)
+    if in_loops:
+        for head, index in reversed(em.loop_heads):
+            pad = lines[head][:len(lines[head]) - len(lines[head].lstrip())] + "    "
+            note = ("this boundary's inputs 0 or in [2^-48, 2^48] before the body reads them, else the "
+                    "careful pass")
+            check = [pad + "if (!careful) { " + c_comment(note),
+                     pad + "    uint64_t cl_hi = 0, cl_lo = ~(uint64_t)0;"]
+            check += [pad + f"    cl_range({fam}[{index}], &cl_hi, &cl_lo);" for fam in real_families]
+            check += [pad + "    if (!cl_range_ok(cl_hi, cl_lo)) return -2;", pad + "}"]
+            lines[head + 1:head + 1] = check
     if reals or real_families:
         # the filter's static bounds need inputs in range (see cl_static), which are finite; the
         # careful pass checks finiteness (a non-finite input fails the range: careful pass)
         size = next(iter(sizes), None)  # one index sort: checked by c_family
         body.append("    if (!careful) { " + c_comment("inputs 0 or in [2^-48, 2^48], else the careful pass"))
         body.append(f"        int cl_r = {' & '.join(f'cl_in_range({v})' for v in reals) or '1'};")
-        for fam in real_families:  # no early exit: the compiler vectorises these
+        for fam in [] if in_loops else real_families:  # no early exit: no branch per element
             body.append(f"        for (size_t cl_i = 0; cl_i < {size}; cl_i++)")
             body.append(f"            cl_r &= cl_in_range({fam}[cl_i]);")
         body.append("        if (!cl_r) return -2;")

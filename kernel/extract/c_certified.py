@@ -40,6 +40,8 @@ from certiloop.kernel.extract.errors import _refuse
 from certiloop.models.lang.terms import Node
 
 RUNTIME = r"""
+#include <stdint.h> /* uint64_t: the range test on a family's elements (cl_range) */
+
 /* ---- certified arithmetic: a value v with a bound on |v - x| for its real value x
    (certiloop.kernel.extract.c_certified; the C counterpart of certiloop.kernel.filtered) ----
    A value is STATIC (k >= 0: |v - x| <= k U m, m the term evaluated on magnitudes) or
@@ -74,6 +76,28 @@ CL_INLINE int cl_in_range(double x)
 {
     double a = fabs(x);
     return (a == 0.0) | ((a >= CL_LEAF_MIN) & (a <= CL_LEAF_MAX)); /* no branch: vectorised loops */
+}
+
+/* The same range test on a family's elements, inside the loop over them: each element's bits
+   with the sign shifted out, b, are 0 or in [bits(2^-48), bits(2^48)] (for numbers >= 0 the
+   bits order as the values; NaN and infinities lie above). Folded over a boundary's elements as
+   hi = max b (<= CL_LEAF_MAX_BITS) and lo = min (b - 1) in unsigned arithmetic (b = 0 wraps to
+   the largest value, so it passes; b in (0, CL_LEAF_MIN_BITS) fails): integer operations,
+   beside the floating-point work of the step. */
+#define CL_LEAF_MIN_BITS 0x79E0000000000000ULL /* the bits of CL_LEAF_MIN shifted up by one */
+#define CL_LEAF_MAX_BITS 0x85E0000000000000ULL /* the bits of CL_LEAF_MAX shifted up by one */
+CL_INLINE void cl_range(double x, uint64_t *hi, uint64_t *lo)
+{
+    union { double d; uint64_t u; } c;
+    uint64_t b;
+    c.d = x;
+    b = c.u << 1;
+    *hi = b > *hi ? b : *hi;
+    *lo = b - 1 < *lo ? b - 1 : *lo;
+}
+CL_INLINE int cl_range_ok(uint64_t hi, uint64_t lo)
+{
+    return (hi <= CL_LEAF_MAX_BITS) & (lo >= CL_LEAF_MIN_BITS - 1);
 }
 
 /* an input (the filter has checked its range), or a constant in range */

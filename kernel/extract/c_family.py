@@ -46,6 +46,9 @@ class _CFamily:
         self.assigned: dict[str, None] = {}  # top-level values the step computes
         self.blocks = False
         self.reduced: set[str] = set()  # min-reductions done: a lower bound, not a value to decide on
+        self.loop_heads: list[tuple[int, str]] = []  # (line of a foreach's `for`, its index)
+        self.in_foreach = False
+        self.outside_reads = False  # a family read outside a foreach (a quantifier, a pinned output)
 
     # ------------------------------------------------------------------ expressions
     def line(self, text: str) -> None:
@@ -99,6 +102,8 @@ class _CFamily:
                                    f"`{_brief(n)}` reads it before a test `∀j ({name}(j) <-> ...)` pins it")
             self.families.setdefault(name, root.sort)
             self.size_of(root.sort)
+            if not self.in_foreach:
+                self.outside_reads = True
             cell = f"{name}[{self.index}]"
             return f"({cell} != 0)" if root.sort.range == BOOL else f"cl_exact({cell})"
         if op in ("forall", "exists"):
@@ -237,8 +242,10 @@ class _CFamily:
         index = index_havoc.target.payload
         size = self.size_of(index_havoc.target.sort)
         self.line(f"for (size_t {index} = 0; {index} < {size}; {index}++) {{ {c_comment(loop.label)}")
+        self.loop_heads.append((len(self.lines) - 1, index))
         self.depth += 1
         self.index = index
+        self.in_foreach = True
         self.declared.append(set())
         self.opened = set()
         if loop.each.member.op != "true":
@@ -269,6 +276,7 @@ class _CFamily:
             self.statement(s)
         self.declared.pop()
         self.index = None
+        self.in_foreach = False
         self.depth -= 1
         self.line("}")
         self.reduced.update(reduced)

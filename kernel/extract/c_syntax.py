@@ -28,7 +28,7 @@ C_KEYWORDS = {
 C_RESERVED = C_KEYWORDS | {
     "sqrt", "isnan", "isfinite", "NAN", "INFINITY", "size_t", "NULL", "enabled", "taken", "skipped",
     "careful", "again", "blocked", "undecided", "fma", "nextafter",
-    "i", "j", "pow", "fabs", "HUGE_VAL",
+    "i", "j", "pow", "fabs", "HUGE_VAL", "uint64_t",
 }
 
 
