@@ -5,7 +5,9 @@ from __future__ import annotations
 import time
 from fractions import Fraction
 
+from certiloop.models.lang.terms import And
 from certiloop.proofs.arith.projection import abbreviation_instances
+from certiloop.proofs.core.cases import case_formulas
 from certiloop.proofs.core.solver import check_valid
 from certiloop.proofs.core.vcgen import Obligation
 from certiloop.proofs.core.verdicts import ObligationResult, judge
@@ -46,6 +48,10 @@ def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: b
                                 reason="not proved: its projected form (abstracted) has a counterexample")
     share = budget.share(PROJECTED_CEX_SHARE) if projected_cex else budget
     answer = check_valid(ob.formula, share.rlimit, share.wall_s)
+    if answer.status == "unknown" and not quick and not projected_cex:
+        split = _by_cases(ob, share, start)
+        if split is not None:
+            return split
     res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
     res.kind = ob.kind
     if res.verdict == "proved":
@@ -55,4 +61,19 @@ def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: b
                       "so it is probably false")
     if not keep_model and res.raw_model is not None:  # keep the exact plain values (no z3 handles)
         res.raw_model = {k: v for k, v in res.raw_model.items() if isinstance(v, (bool, int, Fraction))}
+    return res
+
+
+def _by_cases(ob: Obligation, budget: Budget, start: float) -> ObligationResult | None:
+    """The obligation proved case by case on its guards (proofs/core/cases.py), the cases
+    sharing one more budget of z3 units; None unless every case is proved."""
+    cases = case_formulas(ob.formula)
+    if cases is None:
+        return None
+    for case in cases:
+        if check_valid(case, max(1, budget.rlimit // len(cases)), budget.wall_s).status != "unsat":
+            return None
+    res = ObligationResult(ob.id, ob.path, "proved", time.perf_counter() - start,
+                           backend=f"z3 ({len(cases)} cases)", kind=ob.kind)
+    res.proved_formula = And(*cases)
     return res
