@@ -584,6 +584,64 @@ def test_c_fixture_step_same_as_the_python_fixture(c_fixture):
     assert passed > 300 and fell_back > 20 and undecided < 0.1 * passed
 
 
+
+def test_c_fixture_reason_is_the_python_monitors_first_failing_check(c_fixture):
+    """The C step checks the planes and the command in one pass after the controller (each
+    plane's distance computed once); the reason it reports is still the first check that
+    fails in the Python's order -- inputs (planes: non-finite, then lengths, then distances),
+    motion, the controller, the command -- with the faults combined: a non-finite point or
+    normal, a normal off unit length, the tool past a plane, a position off the prediction."""
+    import ctypes
+
+    from certiloop.kernel import ctrl2, monitor
+
+    rng = np.random.default_rng(8)
+    seen: dict[int, int] = {}
+    for _ in range(600):
+        p, f, fp, points, normals, G, D, e = _ctrl2_scene(rng)
+        points, normals, m = points.copy(), normals.copy(), len(points)
+        faults = rng.random(4) < 0.3
+        if faults[0]:
+            target = points if rng.random() < 0.5 else normals
+            target[rng.integers(m), rng.integers(3)] = rng.choice([np.nan, np.inf, -np.inf])
+        if faults[1]:
+            normals[rng.integers(m)] *= 1.01
+        if faults[2]:
+            b = rng.integers(m)
+            points[b] = p + 0.1 * normals[b]
+        previous = (p + 0.01, f, fp, 0.5) if faults[3] else None
+        memory, k = _Memory(), ctypes.c_double()
+        if previous is not None:
+            memory.has_previous = 1
+            memory.p[:], memory.f[:], memory.fp[:], memory.k = (*map(list, previous[:3]), previous[3])
+        cols = [np.ascontiguousarray(a) for a in (points[:, 0], points[:, 1], points[:, 2], normals[:, 0],
+                                                   normals[:, 1], normals[:, 2])]
+        args = [np.ascontiguousarray(x, dtype=float) for x in (p, f, fp)]
+        reason = c_fixture(*[a.ctypes.data for a in args + cols], m, G, D, e, e, 1e-6,
+                           ctypes.addressof(memory), ctypes.addressof(k))
+        verdict = monitor.check_inputs(p, f, fp, normals, points, G, D, e)
+        if verdict.ok:
+            verdict = monitor.check_motion(previous, p, G, e, 1e-6)
+        reached = verdict.ok  # the Python ran its controller
+        if verdict.ok:
+            r, n = points, normals
+            columns = [c[:, x] for x in range(3) for c in (r, n)]
+            gain, enabled = ctrl2.controller(*p, *fp, *f, D, e, G, *columns)
+            gain = 0.0 if -1e-12 <= float(gain) < 0 else float(gain)
+            if not enabled:
+                verdict = monitor.Verdict(False, "no enabled case")
+            else:
+                verdict = monitor.check_command(gain, np.einsum("ij,ij->i", p - r, n), n @ f, n @ fp, G, e)
+        seen[reason] = seen.get(reason, 0) + 1
+        if reason == 9:  # UNDECIDED: only past every check before the controller, the tool on a plane
+            assert reached and np.min(np.abs(np.einsum("ij,ij->i", p - points, normals))) < 1e-12
+            continue
+        assert (reason == 0) == verdict.ok, (reason, verdict.reason, faults)
+        if reason:
+            assert REASONS[reason] in verdict.reason, (reason, verdict.reason, faults)
+            assert k.value == 0.0
+    assert all(seen.get(r, 0) > 10 for r in (0, 3, 4, 5, 6)), seen
+
 # ------------------------------------------------------------------ split choices (c_family.split)
 
 U_ONE = {"ff1", "ff2", "ff3", "ff7", "ff8"}  # the alternatives of ctrl2's first choice with u := 1
