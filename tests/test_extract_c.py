@@ -582,3 +582,161 @@ def test_c_fixture_step_same_as_the_python_fixture(c_fixture):
                 assert k.value == 0.0
                 fell_back += 1
     assert passed > 300 and fell_back > 20 and undecided < 0.1 * passed
+
+
+
+def test_c_fixture_reason_is_the_python_monitors_first_failing_check(c_fixture):
+    """The C step checks the planes and the command in one pass after the controller (each
+    plane's distance computed once); the reason it reports is still the first check that
+    fails in the Python's order -- inputs (planes: non-finite, then lengths, then distances),
+    motion, the controller, the command -- with the faults combined: a non-finite point or
+    normal, a normal off unit length, the tool past a plane, a position off the prediction."""
+    import ctypes
+
+    from certiloop.kernel import ctrl2, monitor
+
+    rng = np.random.default_rng(8)
+    seen: dict[int, int] = {}
+    for _ in range(600):
+        p, f, fp, points, normals, G, D, e = _ctrl2_scene(rng)
+        points, normals, m = points.copy(), normals.copy(), len(points)
+        faults = rng.random(4) < 0.3
+        if faults[0]:
+            target = points if rng.random() < 0.5 else normals
+            target[rng.integers(m), rng.integers(3)] = rng.choice([np.nan, np.inf, -np.inf])
+        if faults[1]:
+            normals[rng.integers(m)] *= 1.01
+        if faults[2]:
+            b = rng.integers(m)
+            points[b] = p + 0.1 * normals[b]
+        previous = (p + 0.01, f, fp, 0.5) if faults[3] else None
+        memory, k = _Memory(), ctypes.c_double()
+        if previous is not None:
+            memory.has_previous = 1
+            memory.p[:], memory.f[:], memory.fp[:], memory.k = (*map(list, previous[:3]), previous[3])
+        cols = [np.ascontiguousarray(a) for a in (points[:, 0], points[:, 1], points[:, 2], normals[:, 0],
+                                                   normals[:, 1], normals[:, 2])]
+        args = [np.ascontiguousarray(x, dtype=float) for x in (p, f, fp)]
+        reason = c_fixture(*[a.ctypes.data for a in args + cols], m, G, D, e, e, 1e-6,
+                           ctypes.addressof(memory), ctypes.addressof(k))
+        verdict = monitor.check_inputs(p, f, fp, normals, points, G, D, e)
+        if verdict.ok:
+            verdict = monitor.check_motion(previous, p, G, e, 1e-6)
+        reached = verdict.ok  # the Python ran its controller
+        if verdict.ok:
+            r, n = points, normals
+            columns = [c[:, x] for x in range(3) for c in (r, n)]
+            gain, enabled = ctrl2.controller(*p, *fp, *f, D, e, G, *columns)
+            gain = 0.0 if -1e-12 <= float(gain) < 0 else float(gain)
+            if not enabled:
+                verdict = monitor.Verdict(False, "no enabled case")
+            else:
+                verdict = monitor.check_command(gain, np.einsum("ij,ij->i", p - r, n), n @ f, n @ fp, G, e)
+        seen[reason] = seen.get(reason, 0) + 1
+        if reason == 9:  # UNDECIDED: only past every check before the controller, the tool on a plane
+            assert reached and np.min(np.abs(np.einsum("ij,ij->i", p - points, normals))) < 1e-12
+            continue
+        assert (reason == 0) == verdict.ok, (reason, verdict.reason, faults)
+        if reason:
+            assert REASONS[reason] in verdict.reason, (reason, verdict.reason, faults)
+            assert k.value == 0.0
+    assert all(seen.get(r, 0) > 10 for r in (0, 3, 4, 5, 6)), seen
+
+# ------------------------------------------------------------------ split choices (c_family.split)
+
+U_ONE = {"ff1", "ff2", "ff3", "ff7", "ff8"}  # the alternatives of ctrl2's first choice with u := 1
+
+
+def _ctrl2_branches(p, f, fp, r, n, G, D, e) -> tuple[str, str]:
+    """The alternatives of ctrl2's two choices one boundary takes, in exact rationals (the
+    model's guards in its order: the first enabled)."""
+    q = [Fraction(float(x)) for x in (*p, *f, *fp, *r, *n, G, D, e)]
+    p, f, fp, r, n, (G, D, e) = q[0:3], q[3:6], q[6:9], q[9:12], q[12:15], q[15:18]
+    d0 = sum((a - b) * c for a, b, c in zip(p, r, n))
+    fn = sum(a * c for a, c in zip(f, n))
+    fnp = sum(a * c for a, c in zip(fp, n))
+    slow = 0 <= d0 <= D
+    first = [("ff1", d0 >= D), ("ff2", slow and fnp >= 0 and fn >= 0),
+             ("ff3", slow and fnp > 0 and fn <= 0 and -fn / fnp <= e / 2),
+             ("ff4", slow and fnp > 0 and fn <= 0 and -fn / fnp >= e / 2),
+             ("ff5", slow and fnp == 0 and fn <= 0),
+             ("ff6", slow and fnp < 0 and fn >= 0 and -fn / fnp <= e / 2),
+             ("ff7", slow and fnp < 0 and fn >= 0 and -fn / fnp >= e / 2),
+             ("ff8", slow and fnp == 0 and fn >= 0),
+             ("ff9", slow and fnp <= 0 and fn <= 0), ("ff10", d0 <= 0)]
+    ff = next(label for label, holds in first if holds)
+    u = 1 if ff in U_ONE else 0 if ff == "ff10" else d0 / D
+    dist = d0 + G * u * (fn * e + fnp * e * e / 2)
+    disc = (G * u * fn) ** 2 - 2 * G * u * fnp * d0
+    cross = G * fn * e + G * fnp * e * e / 2 != 0
+    inward = fnp >= 0 and fn <= 0 and disc >= 0
+    second = [("sa", fnp <= 0 and dist >= 0), ("se", fnp <= 0 and dist <= 0 and cross),
+              ("sb", fnp >= 0 and fn <= 0 and disc <= 0), ("sf", inward and fn + fnp * e >= 0 and fn != 0),
+              ("sg", inward and fn + fnp * e <= 0 and dist <= 0 and cross),
+              ("sc", inward and fn + fnp * e <= 0 and dist >= 0), ("sd", fnp >= 0 and fn >= 0)]
+    return ff, next((label for label, holds in second if holds), "none")
+
+
+def _branch_scene(rng):
+    """One boundary placed to take a chosen pair of alternatives often: d0 at or beyond the
+    buffer, inside it, on the plane or just past it; n.f and n.f' of either sign, or 0."""
+    n = rng.normal(size=3)
+    n /= np.linalg.norm(n)
+    G, D, e = rng.uniform(0.2, 2, 3)
+    d = float(rng.choice([rng.uniform(D, 3 * D), rng.uniform(0, D), 0.0, -rng.uniform(0, 0.1)]))
+    p = rng.uniform(-2, 2, 3)
+    t1, t2 = np.cross(n, rng.normal(size=3)), np.cross(n, rng.normal(size=3))
+
+    def along(scale):  # a vector whose component along n has about this value (0: exactly 0 force)
+        return np.zeros(3) if scale == 0 else scale * n + t1 * rng.uniform(-1, 1)
+
+    fnp = float(rng.choice([0.0, 1.0, -1.0])) * 10 ** rng.uniform(-1, 1)
+    fn = float(rng.choice([0.0, 1.0, -1.0])) * 10 ** rng.uniform(-2, 1)
+    fp, f = along(fnp), along(fn) + t2 * rng.uniform(-1, 1) * (fn != 0)
+    return p, f, fp, p - d * n, n, G, D, e
+
+
+def _interpreter_decides_alike(k, scene, step) -> None:
+    """As _interpreter_agrees, also past a plane (d0 < 0, outside the assumptions, where the
+    gain may leave [0, 1]): the same decision, and a gain at most the real one, within 2^-20."""
+    p, f, fp, points, normals, G, D, e = scene
+    state, values = _ctrl2_state(p, f, fp, points, normals, G, D, e, dims="xyz")
+    try:
+        exact = {v: _rational(x) for v, x in state.items()}
+        final = Interpreter(step, exact=True).run(FirstEnabled(), exact, checked=True).final
+    except Blocked:
+        final = None
+    gain, enabled = k(*[values[v] for v in k.inputs + k.families])
+    assert enabled == (final is not None), (scene, enabled)
+    if enabled:
+        real = final["k"]
+        assert Fraction(gain) <= real and real - Fraction(gain) <= TIGHT * abs(real) + Fraction(2) ** -1060
+
+
+def test_ctrl2_split_choices_same_as_the_interpreter_and_python(folder):
+    """ctrl2's C writes the code after each choice twice (c_family.split): once for the
+    alternatives that set u := 1 (then kt := u is 1 as well: the second choice splits again),
+    with these values as constants, and once, widened, for the rest. Every pair of alternatives
+    the two choices can take, on each copy, decides as the exact interpreter and the Python
+    kernel do."""
+    source = extract_c(library.get("sbs.ctrl2"))["sbs_ctrl2.c"]
+    assert "if (!careful && cl_c0)" in source and "if (!careful && cl_c1)" in source
+    c, py, step = kernel("sbs.ctrl2", folder), python("sbs.ctrl2")["controller"], step_theorem("sbs.ctrl2")
+    rng = np.random.default_rng(5)
+    seen: dict[tuple[str, str], int] = {}
+    for _ in range(3000):
+        p, f, fp, r, n, G, D, e = _branch_scene(rng)
+        pair = _ctrl2_branches(p, f, fp, r, n, G, D, e)
+        if seen.get(pair, 0) >= 8:
+            continue
+        seen[pair] = seen.get(pair, 0) + 1
+        scene = (p, f, fp, r[None, :], n[None, :], G, D, e)
+        args = _ctrl2_args(scene)
+        assert agrees(c(*args), py(*args), c.undecided), (pair, args)
+        if not c.undecided:  # a tie the floats cannot decide is allowed; the scenes avoid them
+            _interpreter_decides_alike(c, scene, step)
+    firsts = {ff for ff, _ in seen}
+    assert firsts == {f"ff{k}" for k in range(1, 11)} - {"ff8"}, firsts  # ff2 comes before ff8 and holds
+    # the copy with u := 1 takes all seven alternatives of the second choice, kt := 1 or not
+    assert {s for ff, s in seen if ff in U_ONE} >= {"sa", "se", "sb", "sf", "sg", "sc", "sd"}, seen
+    assert {s for ff, s in seen if ff not in U_ONE} >= {"sa", "se", "sb", "sf", "sg", "sd"}, seen

@@ -243,14 +243,26 @@ CL_INLINE cl_real cl_sqrt(cl_real a, int careful)
     return careful ? cl_sqrt_careful(a) : cl_sqrt_body(a, 0);
 }
 
-/* filtered.certain: the sign of a - b in the reals is the float's */
+/* a value's bound inside a comparison, inflated by CL_INFL (the margin for the rounding of the
+   bound's own computation): for a static value m (k U INFL), m times a constant the compiler
+   folds, >= k U m (INFL = 1 + 2^-40 outweighs the two roundings, of the constant and of the
+   product, each at most 1 - 2^-53; the constant is exact for k < 2^12). No finiteness test, which
+   cl_certain needs not: a - b is finite only if a and b are (inf - x, x - inf, NaN - x are not),
+   and a comparison whose difference is not finite is never certain */
+CL_INLINE double cl_cmp_bound(cl_real a)
+{
+    return a.k < 0 ? a.e * CL_INFL : a.m * (a.k * (CL_U * CL_INFL));
+}
+
+/* filtered.certain: the sign of a - b in the reals is the float's. |fl(a - b)| > E >= e_a + e_b
+   implies |a - b| > e_a + e_b (rounding is monotonic), and the subtraction keeps the sign */
 CL_INLINE int cl_certain(cl_real a, cl_real b)
 {
     double e;
     if (a.exact && b.exact)
         return 1;
-    e = a.exact ? cl_bound(b) : b.exact ? cl_bound(a) : cl_bound(a) + cl_bound(b);
-    return (fabs(a.v - b.v) > e * CL_INFL || e == 0) && fabs(a.v - b.v) < INFINITY;
+    e = a.exact ? cl_cmp_bound(b) : b.exact ? cl_cmp_bound(a) : cl_cmp_bound(a) + cl_cmp_bound(b);
+    return (fabs(a.v - b.v) > e || e == 0) && fabs(a.v - b.v) < INFINITY;
 }
 
 CL_INLINE int cl_lt(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v < b.v : -1; }
@@ -261,8 +273,9 @@ CL_INLINE int cl_eq(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v == b.v
 CL_INLINE int cl_ne(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v != b.v : -1; }
 
 /* three-valued connectives: 1 holds, 0 fails, -1 unknown */
-CL_INLINE int cl_and(int a, int b) { return (a == 0 || b == 0) ? 0 : (a < 0 || b < 0) ? -1 : 1; }
-CL_INLINE int cl_or(int a, int b) { return (a == 1 || b == 1) ? 1 : (a < 0 || b < 0) ? -1 : 0; }
+/* (on {-1, 1}, a | b is -1 where either is -1; on {-1, 0}, where either is) */
+CL_INLINE int cl_and(int a, int b) { return (a == 0 || b == 0) ? 0 : a | b; }
+CL_INLINE int cl_or(int a, int b) { return (a == 1 || b == 1) ? 1 : a | b; }
 CL_INLINE int cl_not(int a) { return a < 0 ? -1 : !a; }
 CL_INLINE int cl_iff(int a, int b) { return (a < 0 || b < 0) ? -1 : a == b; }
 
@@ -339,18 +352,22 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
         cl_real cl_d0 = cl_add(cl_add(cl_mul(cl_add(cl_px, cl_neg(cl_exact(rx[i])), careful), cl_exact(nx[i]), careful), cl_mul(cl_add(cl_py, cl_neg(cl_exact(ry[i])), careful), cl_exact(ny[i]), careful), careful), cl_mul(cl_add(cl_pz, cl_neg(cl_exact(rz[i])), careful), cl_exact(nz[i]), careful), careful);
         cl_real cl_fnp = cl_add(cl_add(cl_mul(cl_fxp, cl_exact(nx[i]), careful), cl_mul(cl_fyp, cl_exact(ny[i]), careful), careful), cl_mul(cl_fzp, cl_exact(nz[i]), careful), careful);
         cl_real cl_fn = cl_add(cl_add(cl_mul(cl_fx, cl_exact(nx[i]), careful), cl_mul(cl_fy, cl_exact(ny[i]), careful), careful), cl_mul(cl_fz, cl_exact(nz[i]), careful), careful);
+        int cl_c0 = 0; /* 1: the alternative taken sets u := 1 */
         /* choice: ff1 free (d0 >= D) | ff2 slow, fnp>=0 fn>=0 | ff3 slow, turns early | ff4 slow, turns late | ff5 slow, fnp=0 fn<=0 | ff6 slow, reverses early | ff7 slow, reverses late | ff8 slow, fnp=0 fn>=0 | ff9 slow, fnp<=0 fn<=0 | ff10 stuck (d0 <= 0) */
         cl_real cl_xtr = cl_approx(NAN, NAN, careful);
         if ((cl_t = cl_ge(cl_d0, cl_D)) != 0) { /* ff1 free (d0 >= D) */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_const(1.0);
+            cl_c0 = 1;
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0) { /* ff2 slow, fnp>=0 fn>=0 */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_const(1.0);
+            cl_c0 = 1;
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_gt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0) { /* ff3 slow, turns early */
             if (cl_t < 0) CL_UNSURE;
             cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
             cl_u = cl_const(1.0);
+            cl_c0 = 1;
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_gt(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_fnp, cl_exact(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_div(cl_neg(cl_fn), cl_fnp, careful), cl_div(cl_e, cl_const(2.0), careful)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff4 slow, turns late */
             if (cl_t < 0) CL_UNSURE;
             cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
@@ -366,9 +383,11 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
             if (cl_t < 0) CL_UNSURE;
             cl_xtr = cl_div(cl_neg(cl_fn), cl_fnp, careful);
             cl_u = cl_const(1.0);
+            cl_c0 = 1;
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_eq(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0) { /* ff8 slow, fnp=0 fn>=0 */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_const(1.0);
+            cl_c0 = 1;
         } else if ((cl_t = cl_ge(cl_d0, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_d0, cl_D))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fnp, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_D, cl_exact(0.0)))) != 0) { /* ff9 slow, fnp<=0 fn<=0 */
             if (cl_t < 0) CL_UNSURE;
             cl_u = cl_div(cl_d0, cl_D, careful);
@@ -378,49 +397,106 @@ CL_INLINE int sbs_ctrl2_pass(int careful, double px, double py, double pz, doubl
         } else { /* no alternative is enabled: the model has no run */
             goto blocked;
         }
-        cl_u = cl_widen(cl_u, careful);
-        cl_xtr = cl_widen(cl_xtr, careful);
-        cl_real cl_dist = cl_add(cl_d0, cl_mul(cl_mul(cl_G, cl_u, careful), cl_add(cl_mul(cl_fn, cl_e, careful), cl_mul(cl_mul(cl_fnp, cl_mul(cl_e, cl_e, careful), careful), cl_const(0.5), careful), careful), careful), careful);
-        cl_real cl_disc = cl_add(cl_mul(cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), careful), cl_neg(cl_mul(cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_G, careful), cl_u, careful), cl_fnp, careful), cl_d0, careful)), careful);
-        /* choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away */
-        cl_real cl_tmp = cl_approx(NAN, NAN, careful);
-        cl_real cl_kt = cl_approx(NAN, NAN, careful);
-        if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sa fnp<=0, clear */
-            if (cl_t < 0) CL_UNSURE;
-            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
-            cl_kt = cl_u;
-        } else if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* se fnp<=0, would cross */
-            if (cl_t < 0) CL_UNSURE;
-            cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
-            cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
-        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sb turns back, disc<=0 */
-            if (cl_t < 0) CL_UNSURE;
-            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
-            cl_kt = cl_u;
-        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), cl_exact(0.0)))) != 0) { /* sf turns within step */
-            if (cl_t < 0) CL_UNSURE;
-            cl_tmp = cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful);
-            cl_kt = cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_fnp, careful), cl_d0, careful), cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful), careful);
-        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* sg still inward, would cross */
-            if (cl_t < 0) CL_UNSURE;
-            cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
-            cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
-        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sc still inward, clear */
-            if (cl_t < 0) CL_UNSURE;
-            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
-            cl_kt = cl_u;
-        } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sd away */
-            if (cl_t < 0) CL_UNSURE;
-            cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
-            cl_kt = cl_u;
-        } else { /* no alternative is enabled: the model has no run */
-            goto blocked;
+        if (!careful && cl_c0) { /* u := 1: the rest of the body with these constants */
+            cl_u = cl_const(1.0);
+            cl_real cl_dist = cl_add(cl_d0, cl_mul(cl_G, cl_add(cl_mul(cl_fn, cl_e, careful), cl_mul(cl_mul(cl_fnp, cl_mul(cl_e, cl_e, careful), careful), cl_const(0.5), careful), careful), careful), careful);
+            cl_real cl_disc = cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_mul(cl_G, cl_fn, careful), careful), cl_neg(cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_G, careful), cl_fnp, careful), cl_d0, careful)), careful);
+            int cl_c1 = 0; /* 1: the alternative taken sets kt := 1 */
+            /* choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away */
+            cl_real cl_tmp = cl_approx(NAN, NAN, careful);
+            cl_real cl_kt = cl_approx(NAN, NAN, careful);
+            if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sa fnp<=0, clear */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
+                cl_kt = cl_const(1.0);
+                cl_c1 = 1;
+            } else if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* se fnp<=0, would cross */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
+                cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sb turns back, disc<=0 */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
+                cl_kt = cl_const(1.0);
+                cl_c1 = 1;
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), cl_exact(0.0)))) != 0) { /* sf turns within step */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful);
+                cl_kt = cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_fnp, careful), cl_d0, careful), cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful), careful);
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* sg still inward, would cross */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
+                cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sc still inward, clear */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
+                cl_kt = cl_const(1.0);
+                cl_c1 = 1;
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sd away */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
+                cl_kt = cl_const(1.0);
+                cl_c1 = 1;
+            } else { /* no alternative is enabled: the model has no run */
+                goto blocked;
+            }
+            if (!careful && cl_c1) { /* kt := 1: the rest of the body with these constants */
+                cl_kt = cl_const(1.0);
+                { cl_real cl_v = cl_const(1.0); /* k := min(k, kt), rounded down */
+                    if (!cl_tight(cl_v)) CL_UNSURE;
+                    if (cl_lower_below(cl_v, cl_k.v)) cl_k = cl_exact(cl_lower(cl_v)); }
+            } else { /* the other alternatives, and the careful pass */
+                cl_tmp = cl_widen(cl_tmp, careful);
+                cl_kt = cl_widen(cl_kt, careful);
+                { cl_real cl_v = cl_kt; /* k := min(k, kt), rounded down */
+                    if (!cl_tight(cl_v)) CL_UNSURE;
+                    if (cl_lower_below(cl_v, cl_k.v)) cl_k = cl_exact(cl_lower(cl_v)); }
+            }
+        } else { /* the other alternatives, and the careful pass */
+            cl_u = cl_widen(cl_u, careful);
+            cl_xtr = cl_widen(cl_xtr, careful);
+            cl_real cl_dist = cl_add(cl_d0, cl_mul(cl_mul(cl_G, cl_u, careful), cl_add(cl_mul(cl_fn, cl_e, careful), cl_mul(cl_mul(cl_fnp, cl_mul(cl_e, cl_e, careful), careful), cl_const(0.5), careful), careful), careful), careful);
+            cl_real cl_disc = cl_add(cl_mul(cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), cl_mul(cl_mul(cl_G, cl_u, careful), cl_fn, careful), careful), cl_neg(cl_mul(cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_G, careful), cl_u, careful), cl_fnp, careful), cl_d0, careful)), careful);
+            /* choice: sa fnp<=0, clear | se fnp<=0, would cross | sb turns back, disc<=0 | sf turns within step | sg still inward, would cross | sc still inward, clear | sd away */
+            cl_real cl_tmp = cl_approx(NAN, NAN, careful);
+            cl_real cl_kt = cl_approx(NAN, NAN, careful);
+            if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sa fnp<=0, clear */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
+                cl_kt = cl_u;
+            } else if ((cl_t = cl_le(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* se fnp<=0, would cross */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
+                cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sb turns back, disc<=0 */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
+                cl_kt = cl_u;
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), cl_exact(0.0)))) != 0) { /* sf turns within step */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful);
+                cl_kt = cl_mul(cl_mul(cl_mul(cl_const(2.0), cl_fnp, careful), cl_d0, careful), cl_div(cl_const(1.0), cl_mul(cl_G, cl_mul(cl_fn, cl_fn, careful), careful), careful), careful);
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), cl_exact(0.0)))) != 0) { /* sg still inward, would cross */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful);
+                cl_kt = cl_mul(cl_neg(cl_d0), cl_div(cl_const(1.0), cl_add(cl_mul(cl_mul(cl_G, cl_fn, careful), cl_e, careful), cl_div(cl_mul(cl_mul(cl_G, cl_fnp, careful), cl_mul(cl_e, cl_e, careful), careful), cl_const(2.0), careful), careful), careful), careful);
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_disc, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_le(cl_add(cl_fn, cl_mul(cl_fnp, cl_e, careful), careful), cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_dist, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sc still inward, clear */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
+                cl_kt = cl_u;
+            } else if ((cl_t = cl_ge(cl_fnp, cl_const(0.0))) != 0 && (cl_t = cl_and(cl_t, cl_ge(cl_fn, cl_const(0.0)))) != 0 && (cl_t = cl_and(cl_t, cl_ne(cl_G, cl_exact(0.0)))) != 0) { /* sd away */
+                if (cl_t < 0) CL_UNSURE;
+                cl_tmp = cl_div(cl_const(1.0), cl_G, careful);
+                cl_kt = cl_u;
+            } else { /* no alternative is enabled: the model has no run */
+                goto blocked;
+            }
+            cl_tmp = cl_widen(cl_tmp, careful);
+            cl_kt = cl_widen(cl_kt, careful);
+            { cl_real cl_v = cl_kt; /* k := min(k, kt), rounded down */
+                if (!cl_tight(cl_v)) CL_UNSURE;
+                if (cl_lower_below(cl_v, cl_k.v)) cl_k = cl_exact(cl_lower(cl_v)); }
         }
-        cl_tmp = cl_widen(cl_tmp, careful);
-        cl_kt = cl_widen(cl_kt, careful);
-        { cl_real cl_v = cl_kt; /* k := min(k, kt), rounded down */
-            if (!cl_tight(cl_v)) CL_UNSURE;
-            if (cl_lower_below(cl_v, cl_k.v)) cl_k = cl_exact(cl_lower(cl_v)); }
     }
     /* an output is returned rounded down to a float <= its real value */
     if (!cl_tight(cl_k)) CL_UNSURE;

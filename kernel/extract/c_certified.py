@@ -279,14 +279,26 @@ CL_INLINE cl_real cl_sqrt(cl_real a, int careful)
     return careful ? cl_sqrt_careful(a) : cl_sqrt_body(a, 0);
 }
 
-/* filtered.certain: the sign of a - b in the reals is the float's */
+/* a value's bound inside a comparison, inflated by CL_INFL (the margin for the rounding of the
+   bound's own computation): for a static value m (k U INFL), m times a constant the compiler
+   folds, >= k U m (INFL = 1 + 2^-40 outweighs the two roundings, of the constant and of the
+   product, each at most 1 - 2^-53; the constant is exact for k < 2^12). No finiteness test, which
+   cl_certain needs not: a - b is finite only if a and b are (inf - x, x - inf, NaN - x are not),
+   and a comparison whose difference is not finite is never certain */
+CL_INLINE double cl_cmp_bound(cl_real a)
+{
+    return a.k < 0 ? a.e * CL_INFL : a.m * (a.k * (CL_U * CL_INFL));
+}
+
+/* filtered.certain: the sign of a - b in the reals is the float's. |fl(a - b)| > E >= e_a + e_b
+   implies |a - b| > e_a + e_b (rounding is monotonic), and the subtraction keeps the sign */
 CL_INLINE int cl_certain(cl_real a, cl_real b)
 {
     double e;
     if (a.exact && b.exact)
         return 1;
-    e = a.exact ? cl_bound(b) : b.exact ? cl_bound(a) : cl_bound(a) + cl_bound(b);
-    return (fabs(a.v - b.v) > e * CL_INFL || e == 0) && fabs(a.v - b.v) < INFINITY;
+    e = a.exact ? cl_cmp_bound(b) : b.exact ? cl_cmp_bound(a) : cl_cmp_bound(a) + cl_cmp_bound(b);
+    return (fabs(a.v - b.v) > e || e == 0) && fabs(a.v - b.v) < INFINITY;
 }
 
 CL_INLINE int cl_lt(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v < b.v : -1; }
@@ -297,8 +309,9 @@ CL_INLINE int cl_eq(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v == b.v
 CL_INLINE int cl_ne(cl_real a, cl_real b) { return cl_certain(a, b) ? a.v != b.v : -1; }
 
 /* three-valued connectives: 1 holds, 0 fails, -1 unknown */
-CL_INLINE int cl_and(int a, int b) { return (a == 0 || b == 0) ? 0 : (a < 0 || b < 0) ? -1 : 1; }
-CL_INLINE int cl_or(int a, int b) { return (a == 1 || b == 1) ? 1 : (a < 0 || b < 0) ? -1 : 0; }
+/* (on {-1, 1}, a | b is -1 where either is -1; on {-1, 0}, where either is) */
+CL_INLINE int cl_and(int a, int b) { return (a == 0 || b == 0) ? 0 : a | b; }
+CL_INLINE int cl_or(int a, int b) { return (a == 1 || b == 1) ? 1 : a | b; }
 CL_INLINE int cl_not(int a) { return a < 0 ? -1 : !a; }
 CL_INLINE int cl_iff(int a, int b) { return (a < 0 || b < 0) ? -1 : a == b; }
 

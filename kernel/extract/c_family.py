@@ -13,17 +13,28 @@ the alternative reads them, guarded by their divisor being non-zero, as in the P
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.analysis import _conjuncts, _is_index_sort, _mentions, _outputs, _sort_of, _Step
+from fractions import Fraction
+
+from certiloop.kernel.extract.analysis import (
+    _conjuncts,
+    _is_index_sort,
+    _mentions,
+    _outputs,
+    _reads,
+    _sort_of,
+    _Step,
+)
 from certiloop.kernel.extract.c_certified import cl_constant, cl_guard, cl_op
 from certiloop.kernel.extract.c_syntax import c_comment
 from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
 from certiloop.kernel.extract.roots import _solve
 from certiloop.kernel.extract.vectorised import _family_pin, _min_update, _scalars_written, _target_name
 from certiloop.models.lang.programs import Assign, Choice, Havoc, Loop, Program, Seq, Test
-from certiloop.models.lang.terms import BOOL, REAL, Node, free_vars
+from certiloop.models.lang.terms import BOOL, REAL, Node, const, free_vars
 from certiloop.models.lang.theorem import Theorem
 
 BLOCK = "goto blocked;"
+MAX_COPIES = 4  # split: at most this many copies of a foreach body's code
 
 
 def local_type(sort) -> str:
@@ -49,6 +60,9 @@ class _CFamily:
         self.loop_heads: list[tuple[int, str]] = []  # (line of a foreach's `for`, its index)
         self.in_foreach = False
         self.outside_reads = False  # a family read outside a foreach (a quantifier, a pinned output)
+        self.known: dict[str, Fraction] = {}  # locals that hold a constant on this copy of the code (split)
+        self.copies = 1  # copies of the code being written (split)
+        self.flags = 0  # split's flags so far
 
     # ------------------------------------------------------------------ expressions
     def line(self, text: str) -> None:
@@ -76,6 +90,8 @@ class _CFamily:
                 raise _refuse(n, "a family's index is only usable to read the family (f(i))")
             if name in subst:
                 return subst[name]
+            if self.held(n) is not None:
+                return cl_constant(const(self.known[name]))
             if name in self.reduced:
                 raise _refuse(n, "a min over the boundaries read after the loop (C returns it, rounded "
                               "down, but does not decide on it)")
@@ -92,6 +108,8 @@ class _CFamily:
             name = root.payload
             if name in subst:
                 return subst[name]
+            if self.held(n) is not None:
+                return cl_constant(const(self.known[name]))
             if self.is_local(name):
                 return f"cl_{name}"
             if name in self.pins:
@@ -108,7 +126,13 @@ class _CFamily:
             return f"({cell} != 0)" if root.sort.range == BOOL else f"cl_exact({cell})"
         if op in ("forall", "exists"):
             raise _refuse(n, "a quantifier inside a term; only a test `?∀j P(j)` is written in C")
-        return cl_op(n, [self.code(x, subst) for x in n.args])
+        args = [self.code(x, subst) for x in n.args]
+        held = [self.held(x) if self.held(x) not in subst else None for x in n.args]
+        if op == "*" and any(held):
+            # a known constant factor of ±1 is dropped as a literal one is (no rounding, no bound)
+            n = Node("*", tuple(const(self.known[h]) if h else x for x, h in zip(n.args, held)), n.sort,
+                     n.payload)
+        return cl_op(n, args)
 
     # ------------------------------------------------------------------ statements
     def assign(self, name: str, value: str, sort) -> None:
@@ -147,11 +171,13 @@ class _CFamily:
             return
         self.line(f"CL_TEST({self.code(atom)});")
 
-    def choice(self, p: Choice) -> None:
-        """`if`/`else if` over the alternatives in the model's order; none enabled: blocked."""
+    def choice(self, p: Choice, flag: tuple[str, set[int]] | None = None) -> None:
+        """`if`/`else if` over the alternatives in the model's order; none enabled: blocked.
+        With a flag (see `split`): the alternatives in its set set it to 1, and the values the
+        choice changes are left for the caller to widen."""
         self.line(c_comment("choice: " + " | ".join(p.labels)))
         alts = [self.alternative(q) for q in p.alternatives]
-        changed = list(dict.fromkeys(v for _, effects in alts for v in effects))
+        changed = list(dict.fromkeys(v for _, effects, _ in alts for v in effects))
         for v in changed:  # declared before the chain, so every branch assigns the same local
             if not self.is_local(v):
                 sort = _sort_of(self.theorem, v, REAL)
@@ -161,23 +187,35 @@ class _CFamily:
                 self.declared[-1].add(v)
         self.blocks = True
         # the first alternative that holds; one the floats cannot decide before it: CL_UNSURE
-        for k, ((mask, effects), label) in enumerate(zip(alts, p.labels)):
+        for k, ((mask, effects, _), label) in enumerate(zip(alts, p.labels)):
             head = "if" if k == 0 else "} else if"
             self.line(f"{head} ({cl_guard(mask)}) {{ {c_comment(label)}")
             self.line("    if (cl_t < 0) CL_UNSURE;")
             for v, value in effects.items():
                 self.line(f"    cl_{v} = {value};")
+            if flag is not None and k in flag[1]:
+                self.line(f"    {flag[0]} = 1;")
         self.line(f"}} else {{ {c_comment('no alternative is enabled: the model has no run')}")
         self.line(f"    {BLOCK}")
         self.line("}")
-        for v in changed:  # one static shape whatever branch set it: the code after folds (cl_widen)
+        if flag is None:
+            self.widen(p, changed)
+
+    def widen(self, p: Choice, changed: list[str] | None = None) -> None:
+        """One static shape whatever branch set a value: the code after folds (cl_widen)."""
+        if changed is None:
+            changed = list(dict.fromkeys(v for q in p.alternatives for v in self.alternative(q)[1]))
+        for v in changed:
             sort = _sort_of(self.theorem, v, REAL)
             if (sort.range if sort.is_array else sort) == REAL:
                 self.line(f"cl_{v} = cl_widen(cl_{v}, careful);")
 
-    def alternative(self, p: Program) -> tuple[list[str], dict[str, str]]:
+    def alternative(self, p: Program) -> tuple[list[str], dict[str, str], dict[str, Fraction | None]]:
+        """(its conditions, the values it gives the variables it writes, and which of these
+        are constants -- a constant, or a variable known to hold one: see `split` -- or None)."""
         mask: list[str] = []
         effects: dict[str, str] = {}
+        consts: dict[str, Fraction | None] = {}
         opened: list[str] = sorted(self.opened)
         subst: dict[str, str] = {}
         for q in p.parts if isinstance(p, Seq) else (p,):
@@ -189,6 +227,7 @@ class _CFamily:
                         if divisor.op != "const":
                             mask.append(f"cl_ne({self.code(divisor, subst)}, cl_exact(0.0))")
                         subst[solved] = effects[solved] = self.code(value, subst)
+                        consts[solved] = self.constant_of(value, consts)
                         continue
                     if atom.op != "true":
                         mask.append(self.code(atom, subst))
@@ -196,9 +235,11 @@ class _CFamily:
                 name = _target_name(q.target, self.index)
                 opened.append(name)
                 subst.pop(name, None)
+                consts.pop(name, None)
             elif isinstance(q, Assign):
                 name = _target_name(q.target, self.index)
                 subst[name] = effects[name] = self.code(q.value, subst)
+                consts[name] = self.constant_of(q.value, consts)
             elif isinstance(q, Choice):
                 raise _refuse(q, "a choice nested in an alternative is not vectorised (flatten it into "
                               "the outer choice)")
@@ -208,7 +249,30 @@ class _CFamily:
             if v not in subst and v not in self.opened:
                 raise ExtractError(f"`{v} := *` is never pinned down by a test; cannot extract")
         # an opened value the alternative does not pin keeps no value: the Python reads NaN
-        return mask, {v: c for v, c in effects.items() if v not in self.opened or v in subst}
+        kept = [v for v in effects if v not in self.opened or v in subst]
+        return mask, {v: effects[v] for v in kept}, {v: consts.get(v) for v in kept}
+
+    def held(self, n: Node) -> str | None:
+        """The name of a local known to hold a constant (see `split`) that n reads, else None."""
+        if n.op == "var":
+            name = n.payload
+        elif n.op == "select" and len(n.args) == 2 and n.args[1].op == "var" \
+                and n.args[1].payload == self.index:
+            name = n.args[0].payload
+        else:
+            return None
+        return name if name in self.known else None
+
+    def constant_of(self, value: Node, consts: dict[str, Fraction | None]) -> Fraction | None:
+        """value's constant, where it is one on this copy of the code (consts: the values the
+        alternative set before), else None."""
+        if value.op == "const":
+            return Fraction(value.payload)
+        name = value.payload if value.op == "var" else self.held(value)
+        if name is not None and name in consts:
+            return consts[name]
+        return self.known.get(name) if name is not None else None
+
 
     def statement(self, p: Program) -> None:
         if isinstance(p, Seq):
@@ -254,7 +318,19 @@ class _CFamily:
             self.line("    if (cl_m < 0) CL_UNSURE;")
             self.line("    if (!cl_m) continue; }")
         reduced: list[str] = []
-        for s in inner:
+        self.body(inner, outer, loop.label, reduced)
+        self.declared.pop()
+        self.index = None
+        self.in_foreach = False
+        self.depth -= 1
+        self.line("}")
+        self.reduced.update(reduced)
+        return reduced
+
+    def body(self, inner: list[Program], outer: set[str], label: str, reduced: list[str]) -> None:
+        """The statements of a foreach's body (or the part of it after a choice whose code is
+        duplicated: see `split`)."""
+        for n, s in enumerate(inner):
             red = _min_update(s)
             if red is not None:
                 var, value = red
@@ -267,20 +343,73 @@ class _CFamily:
                 self.line("    if (!cl_tight(cl_v)) CL_UNSURE;")
                 self.line(f"    if (cl_lower_below(cl_v, cl_{var}.v)) "
                           f"cl_{var} = cl_exact(cl_lower(cl_v)); }}")
-                reduced.append(var)
+                if var not in reduced:
+                    reduced.append(var)
                 continue
-            for v in _scalars_written(s, index):
+            for v in _scalars_written(s, self.index):
                 if v in outer or v in self.params:
-                    raise ExtractError(f"{loop.label}: `{v}` is overwritten for every boundary (the last "
+                    raise ExtractError(f"{label}: `{v}` is overwritten for every boundary (the last "
                                        "one wins); only k := min(k, ...) folds over boundaries")
+            if isinstance(s, Choice) and self.split(s, inner[n + 1:], outer, label, reduced):
+                return
             self.statement(s)
+
+    def split(self, p: Choice, tail: list[Program], outer: set[str], label: str, reduced: list[str]) -> bool:
+        """A choice inside a foreach whose alternatives mostly give the values the rest of the
+        body reads the same constants (sbs.ctrl2: `u := 1` in 5 of its 10 alternatives, `kt :=
+        u` in 4 of 7): the rest of the body is written twice, once for those alternatives with
+        the values as the constants they are (exact: the code after folds, with the filter's
+        tightest bounds) and once, as before, for the others after cl_widen. The careful pass
+        takes the second copy (cl_widen keeps its values as they are). The same values, the
+        same decisions in the reals: only the filter's bounds are tighter on the first copy.
+        Written only where the copies stay few (MAX_COPIES) and something after reads them."""
+        if self.copies * 2 > MAX_COPIES or not tail:
+            return False
+        live = set().union(*(_reads(q) for q in tail))
+        written_later = {v for q in tail for v in _written_names(q)} | {
+            v for q in tail for v in _scalars_written(q, self.index)}
+        sets = [self.alternative(q)[2] for q in p.alternatives]
+        changed = [v for v in dict.fromkeys(v for c in sets for v in c) if v in live]
+        if not changed:
+            return False
+        groups: dict[tuple, list[int]] = {}
+        for k, c in enumerate(sets):
+            if all(c.get(v) is not None for v in changed):
+                groups.setdefault(tuple(c[v] for v in changed), []).append(k)
+        if not groups:
+            return False
+        values, taken = max(groups.items(), key=lambda item: len(item[1]))  # the first of the largest
+        flag = f"cl_c{self.flags}"
+        self.flags += 1
+        known = dict(zip(changed, values))
+        what = ", ".join(f"{v} := {value}" for v, value in known.items())
+        self.line(f"int {flag} = 0; {c_comment(f'1: the alternative taken sets {what}')}")
+        self.choice(p, flag=(flag, set(taken)))
+        saved = dict(self.known), set(self.opened)
+        self.copies *= 2
+        note = f"{what}: the rest of the body with these constants"
+        self.line(f"if (!careful && {flag}) {{ {c_comment(note)}")
+        self.depth += 1
+        self.declared.append(set())
+        for v, value in known.items():
+            self.line(f"cl_{v} = {cl_constant(const(value))};")
+            if v not in written_later:
+                self.known[v] = value
+        self.body(tail, outer, label, reduced)
         self.declared.pop()
-        self.index = None
-        self.in_foreach = False
+        self.known, self.opened = dict(saved[0]), set(saved[1])
+        self.depth -= 1
+        self.line(f"}} else {{ {c_comment('the other alternatives, and the careful pass')}")
+        self.depth += 1
+        self.declared.append(set())
+        self.widen(p)
+        self.body(tail, outer, label, reduced)
+        self.declared.pop()
+        self.known, self.opened = saved
         self.depth -= 1
         self.line("}")
-        self.reduced.update(reduced)
-        return reduced
+        self.copies //= 2
+        return True
 
 
 def _rename(value: Node, bound: str, index: str) -> Node:
