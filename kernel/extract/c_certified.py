@@ -279,10 +279,6 @@ CL_INLINE cl_real cl_sqrt(cl_real a, int careful)
     return careful ? cl_sqrt_careful(a) : cl_sqrt_body(a, 0);
 }
 
-/* A static bound of a degree-21 term (m down to 2^-1008) is a subnormal, whose rounding may lose
-   up to 2^-1075 absolute, far more than INFL's relative margin: CL_SUB, added exactly to a
-   subnormal and absorbed by a normal bound, covers it. */
-#define CL_SUB 0x1p-1073
 /* a value's bound inside a comparison, inflated by CL_INFL (the margin for the rounding of the
    bound's own computation): for a static value m (k U INFL), m times a constant the compiler
    folds, >= k U m (INFL = 1 + 2^-40 outweighs the two roundings, of the constant and of the
@@ -291,7 +287,7 @@ CL_INLINE cl_real cl_sqrt(cl_real a, int careful)
    and a comparison whose difference is not finite is never certain */
 CL_INLINE double cl_cmp_bound(cl_real a)
 {
-    return a.k < 0 ? a.e * CL_INFL : a.m * (a.k * (CL_U * CL_INFL)) + CL_SUB;
+    return a.k < 0 ? a.e * CL_INFL : a.m * (a.k * (CL_U * CL_INFL));
 }
 
 /* filtered.certain: the sign of a - b in the reals is the float's. |fl(a - b)| > E >= e_a + e_b
