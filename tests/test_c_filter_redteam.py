@@ -247,3 +247,38 @@ def test_family_range_test_in_integers_is_the_float_range_test(tmp_path):
         assert lib.by_bits(x, len(g)) == lib.by_float(x, len(g)), g
     assert lib.by_bits(ffi.new("double[]", [0.0, -0.0, 2.0 ** -48, -2.0 ** 48]), 4) == 1
     assert lib.by_bits(ffi.new("double[]", [1.0, math.nextafter(2.0 ** -48, 0)]), 2) == 0
+
+
+def test_comparison_is_sound_where_the_bounds_are_subnormals(tmp_path):
+    """Two static values whose bounds k U m are subnormals (degree-21 terms, m down to 2^-1008):
+    each computed bound may round below its real value by up to half a subnormal step, yet
+    cl_certain takes no difference |d| <= e_a + e_b for certain: subnormals add exactly, and
+    INFL lifts each bound strictly above the half-step where it would round down. The largest
+    double at or below e_a + e_b (from Fractions) is tried, with m chosen near rounding ties."""
+    import cffi
+
+    from certiloop.kernel.extract.c_build import build
+    from certiloop.kernel.extract.c_certified import RUNTIME
+
+    source = ("#include <math.h>\n#include <stddef.h>\n" + RUNTIME + "\n"
+              "int certain(double d, double ma, double mb, double k)"
+              " { return cl_certain(cl_static(d, ma, k, 1.0, 0), cl_static(0.0, mb, k, 1.0, 0)); }\n")
+    library = build({"pair.c": source}, tmp_path)
+    ffi = cffi.FFI()
+    ffi.cdef("int certain(double d, double ma, double mb, double k);")
+    lib = ffi.dlopen(str(library))
+    step = Fraction(2) ** -1074
+    rng = np.random.default_rng(11)
+    for k in (1, 3, 32):
+        for _ in range(3000):
+            # m with k U m = (j + 1/2 - tiny) subnormal steps: the product rounds down the most
+            j = 2 * int(rng.integers(1, 2**19))  # even: an exact tie rounds down to it
+            tiny = [Fraction(0), Fraction(int(rng.integers(1, 1000)), 10**6)]  # exact ties, near ties
+            ms = [float((j + Fraction(1, 2) - tiny[int(rng.integers(2))]) * step / (k * Fraction(2) ** -52))
+                  for _ in range(2)]
+            ms = [m if m >= 2.0 ** -1008 else 2.0 ** -1008 for m in ms]
+            real = sum(k * Fraction(2) ** -52 * Fraction(m) for m in ms)
+            d = float(real)
+            d = d if Fraction(d) <= real else float(np.nextafter(d, 0.0))
+            assert not lib.certain(d, ms[0], ms[1], float(k)), (d, ms, k)
+            assert not lib.certain(-d, ms[0], ms[1], float(k)), (d, ms, k)
