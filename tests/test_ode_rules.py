@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from certiloop.models import And, Implies, Reals, Theorem, ode
-from certiloop.models.lang.terms import ModelError
+from certiloop.models.lang.terms import ModelError, free_vars
 from certiloop.proofs.core.odes import OdeStep, atom_premise, cofactors, darboux_identity
 from certiloop.proofs.core.solver import check_valid
 from certiloop.proofs.core.vcgen import generate
@@ -244,3 +244,33 @@ def test_whatever_is_proved_holds_along_the_flow(rate, inflow, level, op):
     starts = [[level + d] for d in ((0.0, 1e-3, 1.0, 5.0) if op == ">=" else (1e-3, 1.0, 5.0))]
     keeps = (lambda x: x >= level - 1e-9) if op == ">=" else (lambda x: x > level)
     assert holds_along(lambda x: [rate * x + inflow], starts, keeps)
+
+
+# ------------------------------------------------------------------ Darboux polynomials by linear algebra
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.integers(-3, 3), min_size=3, max_size=3),
+       st.lists(st.integers(-2, 2), min_size=2, max_size=2))
+def test_left_eigenvectors_give_darboux_polynomials(entries, offsets):
+    """Every atom the linear-algebra search proposes for an affine system is a Darboux
+    polynomial, decided by the core's own exact check: p' = g p with g a constant."""
+    from certiloop.proofs.core.odes import cofactors
+    from certiloop.proofs.engine.darboux import darboux_atoms
+
+    a, b_, d = entries  # triangular: rational eigenvalues a and d
+    system = ode({x: a * x + b_ * y + offsets[0], y: d * y + offsets[1]})
+    for atom in darboux_atoms(system):
+        exact, _ = cofactors(atom, system)
+        assert exact is not None and not free_vars(exact), (str(atom), str(exact))
+
+
+def test_darboux_polynomials_prove_what_the_model_does_not_state_and_are_witnessed():
+    """x' = -x + y, y' = -2y from (1, 1): 2x + 3y >= 0 holds because x + y and y (left
+    eigenvectors, found by linear algebra, never written in the model) keep their signs;
+    from (1, -1) the claim is false and is not proved."""
+    system = ode({x: -x + y, y: -2 * y})
+    assert verdict(And(x == 1, y == 1), system, 2 * x + 3 * y >= 0) == "proved"
+    assert holds_along(lambda x, y: [-x + y, -2 * y], [[1.0, 1.0]], lambda x, y: 2 * x + 3 * y >= 0, 10.0)
+    assert verdict(And(x == 1, y == -1), system, 2 * x + 3 * y >= 0) != "proved"
+    assert not holds_along(lambda x, y: [-x + y, -2 * y], [[1.0, -1.0]], lambda x, y: 2 * x + 3 * y >= 0)

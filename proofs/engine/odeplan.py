@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq
-from certiloop.models.lang.terms import ModelError, Node, free_vars
+from certiloop.models.lang.terms import And, ModelError, Node, free_vars
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.odes import (
     OdeStep,
@@ -32,6 +32,7 @@ from certiloop.proofs.core.odes import (
 from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.core.wd import has_division
+from certiloop.proofs.engine.darboux import darboux_atoms
 
 MAX_ROUNDS = 40
 Plan = dict[tuple, tuple[OdeStep, ...]]
@@ -77,7 +78,7 @@ def candidates(theorem: Theorem, ode: ODE) -> list[Node] | None:
         return None
     names = {v.payload for v in ode.variables}
     seen: dict[tuple, Node] = {}
-    for source in (theorem.guarantee, ode.domain, theorem.assumptions):
+    for source in (theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))):
         for atom in conjuncts(source):
             if atom.key not in seen and set(free_vars(atom)) & names and _usable(atom, ode):
                 seen[atom.key] = atom
