@@ -25,6 +25,12 @@ class Chooser:
     def integer(self, what: str, lo: int, hi: int) -> int:
         raise NotImplementedError
 
+    def real_between(self, what: str, lo: float, hi: float) -> float:
+        """A value for an open real that a test bounds to [lo, hi] (finite, lo <= hi): drawn
+        there, so that a havoc followed by its range test is not rejected most of the time.
+        A chooser with nothing better draws as for any real (the test still decides)."""
+        return self.real(what)
+
     def slack(self, strict: bool) -> float:
         """How far inside an inequality a repaired initial value lands (0: on the edge)."""
         raise NotImplementedError
@@ -72,6 +78,9 @@ class HypothesisChooser(Chooser):
     def integer(self, what: str, lo: int, hi: int) -> int:
         return self.data.draw(self.st.integers(lo, hi))
 
+    def real_between(self, what: str, lo: float, hi: float) -> float:
+        return self.data.draw(self.st.floats(lo, hi, allow_nan=False, allow_subnormal=False))
+
     def slack(self, strict: bool) -> float:
         return self.data.draw(self._strict_slack if strict else self._slack)
 
@@ -90,6 +99,9 @@ class RandomChooser(Chooser):
 
     def integer(self, what: str, lo: int, hi: int) -> int:
         return self.rng.randint(lo, hi)
+
+    def real_between(self, what: str, lo: float, hi: float) -> float:
+        return self.rng.uniform(lo, hi)
 
     def slack(self, strict: bool) -> float:
         return self.rng.uniform(1e-3 if strict else 0.0, REAL_RANGE) if self.rng.random() < 0.7 else (
@@ -132,6 +144,9 @@ class Recording(Chooser):
 
     def integer(self, what, lo, hi):
         return self._keep("integer", self.inner.integer(what, lo, hi))
+
+    def real_between(self, what, lo, hi):
+        return self._keep("real", self.inner.real_between(what, lo, hi))
 
     def slack(self, strict):
         return self._keep("slack", self.inner.slack(strict))

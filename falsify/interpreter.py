@@ -15,11 +15,12 @@ always an allowed duration) and at the end of the program.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from certiloop.falsify.choosers import Chooser
+from certiloop.falsify.choosers import REAL_RANGE, Chooser
 from certiloop.falsify.evaluate import OPEN, Blocked, Compiler, NeedValue, Table, margin, universe
 from certiloop.falsify.flows import Flow
 from certiloop.falsify.initial import initial_state
@@ -329,6 +330,9 @@ class Interpreter:
             solved = self._solve(need.key, s, cond)
             if solved is not None:
                 return [solved]
+            bounds = self._real_bounds(need.key, s, cond)
+            if bounds is not None:
+                return [self.c.number(self.chooser.real_between(what, *bounds))]
             return [self.c.number(self.chooser.real(what))]
         elements = list(universe(s, sort))
         first = self.chooser.pick(what, len(elements))
@@ -338,10 +342,40 @@ class Interpreter:
         """Where to draw an open Int: [-2, 8], narrowed by the test's bounds on it that are known
         now (`0 <= k & k < N` with N set: [0, N - 1]), so a havoc followed by a range test is not
         rejected most of the time. Only where the draw comes from; the test is still checked."""
-        lo, hi = -2, 8
-        if cond is None or not isinstance(key, str):
-            return lo, hi
         found_lo = found_hi = None
+        for bound, strict, below in self._bounds(key, s, cond):
+            if not isinstance(bound, (int, Fraction)) and not float(bound).is_integer():
+                continue
+            if below:
+                b = int(bound) + strict
+                found_lo = b if found_lo is None else max(found_lo, b)
+            else:
+                b = int(bound) - strict
+                found_hi = b if found_hi is None else min(found_hi, b)
+        return _span(found_lo, found_hi, 10, (-2, 8))
+
+    def _real_bounds(self, key, s: dict[str, Any], cond: Node | None) -> tuple[float, float] | None:
+        """Where to draw an open real that the test bounds (`-w/2 <= u & u <= w/2` with w set:
+        [-w/2, w/2]); None when it bounds it on neither side. As for Ints, the test decides."""
+        found_lo = found_hi = None
+        for bound, _strict, below in self._bounds(key, s, cond):
+            b = float(bound)
+            if not math.isfinite(b):
+                continue
+            if below:
+                found_lo = b if found_lo is None else max(found_lo, b)
+            else:
+                found_hi = b if found_hi is None else min(found_hi, b)
+        if found_lo is None and found_hi is None:
+            return None
+        return _span(found_lo, found_hi, REAL_RANGE, None)
+
+    def _bounds(self, key, s: dict[str, Any], cond: Node | None) -> list[tuple[Any, bool, bool]]:
+        """The test's conjuncts `key op t` (either side) whose t is known now, as
+        (value of t, strict, whether t bounds key from below)."""
+        if cond is None or not isinstance(key, str):
+            return []
+        out = []
         for atom in _conjuncts(cond):
             if atom.op != "cmp" or atom.payload not in ("<", "<=", ">", ">="):
                 continue
@@ -355,22 +389,8 @@ class Interpreter:
                 bound = self.c(right)(s)
             except (NeedValue, Blocked, ArithmeticError):
                 continue
-            if not isinstance(bound, (int, Fraction)) and not float(bound).is_integer():
-                continue
-            b = int(bound)
-            if op in (">", ">="):
-                b += op == ">"
-                found_lo = b if found_lo is None else max(found_lo, b)
-            else:
-                b -= op == "<"
-                found_hi = b if found_hi is None else min(found_hi, b)
-        if found_lo is not None and found_hi is not None and found_lo <= found_hi:
-            return found_lo, found_hi
-        if found_lo is not None:
-            return found_lo, found_lo + 10
-        if found_hi is not None:
-            return found_hi - 10, found_hi
-        return lo, hi
+            out.append((bound, op in ("<", ">"), op in (">", ">=")))
+        return out
 
     def _solve(self, key, s: dict[str, Any], cond: Node | None):
         """The value of `key` that an equation of the test pins down, if it is linear in it."""
@@ -386,6 +406,18 @@ class Interpreter:
 
 
 # --------------------------------------------------------------------------- helpers
+
+
+def _span(lo, hi, width, neither):
+    """[lo, hi] from the bounds found: both (if they leave room), one side and `width`
+    beyond it, or `neither`."""
+    if lo is not None and hi is not None:
+        return (lo, hi) if lo <= hi else neither
+    if lo is not None:
+        return lo, lo + width
+    if hi is not None:
+        return hi - width, hi
+    return neither
 
 
 def _keep_known(out: dict[str, float], label: str, fn, s) -> None:

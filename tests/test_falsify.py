@@ -41,6 +41,31 @@ def test_open_values_are_solved_from_the_test_that_pins_them():
     assert last["y"] == pytest.approx(1 / last["G"])
 
 
+def test_open_reals_are_drawn_within_the_bounds_their_test_sets():
+    """`u := *; ?(-w/2 <= u & u <= w/2)`: u is drawn where the test lets it be (w known),
+    so no run blocks there; the test still decides (a violation needs u within 1/1000 of
+    w/2, which a draw from [-10, 10] would almost never hit)."""
+    u, w, x = Reals("u w x")
+    th = Theorem("t.range", And(w > 0, w <= 1, x == 0),
+                 seq(havoc(u), check(And(-w / 2 <= u, u <= w / 2)), assign(x, u)),
+                 x < w / 2 - 0.001, expected="refuted")
+    interp = Interpreter(th)
+    started = 0
+    for seed in range(60):
+        try:
+            run = interp.run(RandomChooser(seed))  # a blocked test raises Blocked, not this
+        except Rejected:  # the drawn start state missed the assumptions
+            continue
+        started += 1
+        last = run.checkpoints[-1].state
+        assert -last["w"] / 2 <= last["u"] <= last["w"] / 2
+    assert started >= 30
+    found = falsify(th, Options(seed=0, database=None, shrink=False, batch_runs=0, max_examples=200))
+    assert found.found and found.check == "replayed in exact rational arithmetic"
+    state = found.run.checkpoints[-1].state
+    assert state["x"] >= state["w"] / 2 - 0.001  # checked here, independently of the search
+
+
 def test_flows_follow_the_exact_solution_and_stop_at_the_domain_edge():
     h, v, g = Reals("h v g")
     fall = ode({h: v, v: -g}, h >= 0)
