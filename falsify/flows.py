@@ -24,6 +24,20 @@ ESCAPE = 1e9  # a flow is followed until a value reaches this (beyond any model'
 RTOL, ATOL = 1e-7, 1e-9  # found runs are re-checked, so search favours speed
 
 
+def _remembered(trajectory: Callable[[float], dict], longest: float) -> tuple[Callable[[float], dict], float]:
+    """The trajectory with each time's state computed once and returned as the same object:
+    the watch's samples are the run's samples whenever the flow runs to the end (so the
+    interpreter computes their margins once)."""
+    states: dict[float, dict] = {}
+
+    def at(t: float) -> dict:
+        got = states.get(t)
+        if got is None:
+            got = states[t] = trajectory(t)
+        return got
+    return at, longest
+
+
 class Inexact(Exception):
     """This flow has no closed form, so it cannot be replayed in exact arithmetic."""
 
@@ -63,16 +77,17 @@ class Flow:
             tau = Fraction(duration(lambda u: 0.0))
             self._check_exact(state, tau)
             return self.at(state, tau), tau, [(0, state), (tau, self.at(state, tau))]
-        trajectory, longest = self._trajectory(state, horizon)
+        trajectory, longest = _remembered(*self._trajectory(state, horizon))
 
         def settle(u: float) -> float:
             end = u * longest
             if watch is None or end <= 0:
                 return end
             # stopping the flow is always allowed: stop where the guarantee is worst
-            times = np.linspace(0.0, end, WATCH_SAMPLES)
-            worst = min(times, key=lambda t: watch(trajectory(t)))
-            return float(worst) if watch(trajectory(worst)) < 0 else end
+            times = [float(t) for t in np.linspace(0.0, end, WATCH_SAMPLES)]
+            values = [watch(trajectory(t)) for t in times]
+            worst = min(range(len(times)), key=values.__getitem__)
+            return times[worst] if values[worst] < 0 else end
 
         tau = float(duration(settle))
         if tau < 0 or tau > longest * (1 + 1e-12) + 1e-15:
@@ -80,7 +95,7 @@ class Flow:
         samples = [(float(t), trajectory(float(t))) for t in np.linspace(0.0, tau, WATCH_SAMPLES)]
         return trajectory(tau), tau, samples
 
-    def _trajectory(self, state, horizon: float):
+    def _trajectory(self, state, horizon: float) -> tuple[Callable[[float], dict], float]:
         """(tau -> state, longest duration within the domain and the horizon)."""
         if self.solution is not None:
             traj = lambda t: self.at(state, t)  # noqa: E731

@@ -21,7 +21,16 @@ from fractions import Fraction
 from typing import Any
 
 from certiloop.falsify.choosers import REAL_RANGE, Chooser
-from certiloop.falsify.evaluate import OPEN, Blocked, Compiler, NeedValue, Table, margin, universe
+from certiloop.falsify.evaluate import (
+    OPEN,
+    Blocked,
+    BlockedByTest,
+    Compiler,
+    NeedValue,
+    Table,
+    margin,
+    universe,
+)
 from certiloop.falsify.flows import Flow
 from certiloop.falsify.initial import initial_state
 from certiloop.falsify.state import Rejected, put, remove, solve_linear
@@ -168,7 +177,7 @@ class Interpreter:
             self._open(p.target, s)
         elif isinstance(p, Test):
             if not self._holds(self.c(p.cond), s, p.cond):
-                raise Blocked(f"test {p.cond} failed")
+                raise BlockedByTest(p.cond)
         elif isinstance(p, Seq):
             parts = p.parts
             for k, q in enumerate(parts):
@@ -251,7 +260,15 @@ class Interpreter:
             self._value(f, s)
         if not self._holds(flow.domain_holds, s, p.domain):
             raise Blocked("evolution domain false")
-        watch = self._worst if self.top is not None else None
+        seen: dict[int, tuple[dict, dict]] = {}  # id(state) -> (state, its margins)
+
+        def margins_of(st: dict) -> dict[str, float]:  # a sample the watch saw is not redone
+            got = seen.get(id(st))
+            if got is None:
+                got = seen[id(st)] = (st, self.margins(st))
+            return got[1]
+
+        watch = (lambda st: min(margins_of(st).values(), default=1.0)) if self.top is not None else None
         before = copy_state(s) if flow.solution is not None else None
         end, tau, samples = flow.run(s, self.chooser.duration, self.horizon, watch)
         if before is not None:
@@ -259,12 +276,9 @@ class Interpreter:
         for t, st in samples:
             scalars = {k: float(v) for k, v in st.items()
                        if isinstance(v, (float, Fraction)) and "@" not in k}
-            self.out.samples.append((float(self.time) + float(t), self.margins(st), scalars))
+            self.out.samples.append((float(self.time) + float(t), margins_of(st), scalars))
         self.time = self.time + tau
         s.update(end)
-
-    def _worst(self, s) -> float:
-        return min(self.margins(s).values(), default=1.0)
 
     def _quietly(self, fn, s) -> bool:
         try:
