@@ -94,7 +94,8 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
     except Inexact:  # a flow without a closed form: follow it by validated enclosures
         from certiloop.falsify.validated import confirm_enclosed
 
-        validated, why = confirm_enclosed(theorem, script, max_steps, families, start)
+        deep = run is not None and run.violated is not None and _deep(run)
+        validated, why = confirm_enclosed(theorem, script, max_steps, families, start, retreat=deep)
         if validated and run is not None and run.violated is not None:
             return run, validated
     except failures:

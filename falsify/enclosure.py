@@ -105,8 +105,9 @@ class TaylorSystem:
                 break
             levels.append(nxt)
         self.order = len(levels) - 1  # the remainder's order k
-        self.rhs = _compiled(rhs, xs + self.params)
-        self.levels = [_compiled(level, xs + self.params) for level in levels]
+        with precision():  # the rational constants' enclosures
+            self.rhs = _compiled(rhs, xs + self.params)
+            self.levels = [_compiled(level, xs + self.params) for level in levels]
 
 
 def _compiled(exprs, symbols) -> Callable[[list], list]:
@@ -168,18 +169,18 @@ def enclose(system: TaylorSystem, start: list[Any], params: list[Any], tau: Frac
             else:
                 raise CannotEnclose(f"no a priori enclosure at t = {float(done):.12g} even for a step of "
                                     f"{float(h):.3g}: the solution may blow up there")
-            x, swept = stepped
+            x, swept, grow = stepped
             _useful(x, done + h)
             path.append(swept)
             done += h
             times.append(done)
-            h *= 2  # try a longer step next
+            h *= grow
         return Enclosure(x, path, times)
 
 
 def _step(system: TaylorSystem, x: list, p: list, h: Fraction):
-    """(box at h, box swept on [0,h]) for one Taylor step, or None if no a priori
-    enclosure was found for this h."""
+    """(box at h, box swept on [0,h], factor for the next step) for one Taylor step, or
+    None if no a priori enclosure was found for this h or its remainder is too wide."""
     from mpmath import iv
 
     b = a_priori(system, x, p, h)
@@ -192,17 +193,23 @@ def _step(system: TaylorSystem, x: list, p: list, h: Fraction):
     factorial = [iv.mpf(1)]
     for j in range(1, system.order + 1):
         factorial.append(factorial[-1] * j)
-    end, swept = [], []
+    slope = system.rhs(b + p)  # x' on the whole step
+    end, swept, worst = [], [], 0.0
     for i in range(len(x)):
         terms = [coefficients[j][i] / factorial[j] for j in range(system.order)]
         terms.append(_remainder(remainder[i] / factorial[system.order]))
         added = (terms[-1] * hh ** system.order).delta.b
         if not _finite(added) or added > STEP_TOLERANCE * (1 + abs(x[i].mid).b):
             return None  # a shorter step keeps the remainder (the truncation error) small
+        worst = max(worst, float((added / (STEP_TOLERANCE * (1 + abs(x[i].mid).b))).b))
         end.append(_horner(terms, hh))
-        along = _horner(terms, span)
-        swept.append(_meet(along, b[i]))
-    return end, swept
+        along = _meet(_horner(terms, span), b[i])
+        if slope[i].a >= 0 or slope[i].b <= 0:  # monotone on the step: between its two ends
+            along = _meet(along, _hull(x[i], end[-1]))
+        swept.append(along)
+    # the next step: as long as keeps this remainder within the tolerance (it grows as h^k)
+    grow = 2.0 if worst <= 0 else min(2.0, 0.9 * worst ** (-1 / system.order))
+    return end, swept, Fraction(grow).limit_denominator(64)
 
 
 def _remainder(term):
@@ -223,7 +230,7 @@ def a_priori(system: TaylorSystem, x: list, p: list, h: Fraction) -> list | None
             return None
         if all(bi.a <= y.a and y.b <= bi.b for bi, y in zip(b, image)):
             return image  # contained in b, so it is an enclosure too (and tighter)
-        b = [iv.mpf([min(bi.a, y.a), max(bi.b, y.b)]) for bi, y in zip(b, image)]
+        b = [_hull(bi, y) for bi, y in zip(b, image)]
     return None
 
 
@@ -239,6 +246,12 @@ def _horner(terms: list, t):
     for c in reversed(terms[:-1]):
         out = out * t + c
     return out
+
+
+def _hull(a, b):
+    from mpmath import iv
+
+    return iv.mpf([min(a.a, b.a), max(a.b, b.b)])
 
 
 def _meet(a, b):

@@ -203,8 +203,8 @@ def confirm(theorem: Theorem, script, run: Run, opts: Options, enclose: bool = T
     except Inexact:  # a flow without a closed form: follow it by validated enclosures
         from certiloop.falsify.validated import confirm_enclosed
 
-        validated, why = (confirm_enclosed(theorem, script, opts.max_steps, opts.families) if enclose
-                          else ("", "enclosures not tried"))
+        validated, why = (confirm_enclosed(theorem, script, opts.max_steps, opts.families, retreat=_deep(run))
+                          if enclose else ("", "enclosures not tried"))
         if validated:
             return validated
     except (Diverged, Rejected, Blocked, ZeroDivisionError, OverflowError):

@@ -58,16 +58,21 @@ class EnclosingInterpreter(Interpreter):
         tau = Fraction(self.chooser.duration(lambda u: 0.0))
         system = self._system(p)
         try:
-            params = [self._value(self.c(atom), s) for atom in system.param_atoms]
-            box = enclose(system, [s[n] for n in system.names], params, tau)
+            params = [_iv(self._value(self.c(atom), s)) for atom in system.param_atoms]
+            box = enclose(system, [_iv(s[n]) for n in system.names], params, tau)
         except CannotEnclose as exc:
             self.why = str(exc)
             raise Uncertain(f"no enclosure of {p}: {exc}") from None
         trial = dict(s)
         for swept in box.path:  # the domain must hold all along: on every swept box
             trial.update({n: IntervalValue(x) for n, x in zip(system.names, swept)})
-            if not flow.domain_holds(trial):
-                raise Blocked("the evolution domain does not hold along the enclosure")
+            try:
+                inside = flow.domain_holds(trial)
+            except Uncertain:
+                inside = False
+            if not inside:
+                self.why = f"the evolution domain {p.domain} does not certainly hold along the enclosure"
+                raise Blocked(self.why)
         self.steps += box.steps
         self.width = max(self.width, box.width)
         self.enclosed += 1
@@ -81,19 +86,44 @@ class EnclosingInterpreter(Interpreter):
         return system
 
 
+RETREATS = (20, 10)  # a run stopped at a domain's edge or near a blow-up is tried again with
+# every flow 2^-20 (then 2^-10) of its duration shorter: float event times miss the edge by
+# rounding, and an enclosure can decide nothing on it
+
+
 def confirm_enclosed(theorem: Theorem, script, max_steps: int, families: tuple[int, int],
-                     initial: dict[str, Any] | None = None) -> tuple[str, str]:
-    """(how the run was confirmed with interval enclosures, "") or ("", why it was not)."""
+                     initial: dict[str, Any] | None = None, retreat: bool = False) -> tuple[str, str]:
+    """(how the run was confirmed with interval enclosures, "") or ("", why it was not).
+    With `retreat`, a run that fails is tried again with its flows slightly shorter (a
+    different run, itself fully checked; the message says so)."""
+    check, why = _confirm(theorem, script, max_steps, families, initial)
+    for bits in RETREATS if retreat and not check else ():
+        share = 1 - Fraction(1, 2**bits)
+        shorter = [(k, Fraction(v) * share if k == "duration" else v) for k, v in script]
+        check, _ = _confirm(theorem, shorter, max_steps, families, initial)
+        if check:
+            return f"{check}, on the run with every flow stopped 2^-{bits} of its duration earlier", ""
+    return check, why
+
+
+def _confirm(theorem: Theorem, script, max_steps: int, families: tuple[int, int],
+             initial: dict[str, Any] | None) -> tuple[str, str]:
     interp = EnclosingInterpreter(theorem, max_steps, families)
     try:
         run = interp.run(Scripted(script), initial)
-    except (Diverged, Inexact, Rejected, Blocked, CannotEnclose, ArithmeticError, TypeError) as exc:
-        # TypeError: an interval where only a number will do (an array index, a bound)
+    except (Diverged, Inexact, Rejected, Blocked, CannotEnclose, ArithmeticError) as exc:
         return "", interp.why or f"the replay stopped: {exc}"
+    except Exception as exc:  # noqa: BLE001 - e.g. an interval where only a number will do (an
+        # array index): no confirmation, and the reason shown, never a crash of the search
+        return "", f"the interval replay failed: {type(exc).__name__}: {exc}"
     if run.violated is None or interp.enclosed == 0:
         return "", interp.why or "the guarantee is not certainly violated on the enclosure"
     return (f"confirmed with interval enclosures ({interp.enclosed} flow(s), {interp.steps} Taylor steps, "
             f"max width {interp.width:.1g})"), ""
+
+
+def _iv(v: Any) -> Any:
+    return v.iv if isinstance(v, IntervalValue) else v
 
 
 def has_intervals(state: dict[str, Any]) -> bool:

@@ -144,6 +144,24 @@ def test_a_violation_within_the_enclosure_is_not_claimed():
     assert check.startswith("confirmed with interval enclosures")
 
 
+def test_a_second_flow_starts_from_the_first_ones_enclosure():
+    th = Theorem("t.two", And(x == 1, y == 0), loop(ode({x: -x * y, y: x**2})), x >= 0.8)
+    check, _ = confirm_enclosed(th, [("integer", 2), ("duration", 0.5), ("duration", 0.5)], 3, (1, 8))
+    assert check.startswith("confirmed with interval enclosures (2 flow(s)")
+
+
+def test_a_run_stopped_at_the_domain_edge_is_confirmed_slightly_shorter():
+    # float event location stops the flow where y = 1/2 only up to rounding: the enclosure
+    # cannot decide the domain there, but the same run stopped 2^-20 of its duration earlier
+    # is inside the domain for certain and still violates x >= 9/10 (x = sqrt(3)/2 there)
+    th = Theorem("t.dom", And(x == 1, y == 0), loop(ode({x: -x * y, y: x**2}, y <= F(1, 2))), x >= 0.9)
+    script = [("integer", 1), ("duration", 0.5493061517922606)]
+    check, why = confirm_enclosed(th, script, 3, (1, 8))
+    assert check == "" and "domain" in why
+    check, _ = confirm_enclosed(th, script, 3, (1, 8), retreat=True)
+    assert check.endswith("on the run with every flow stopped 2^-20 of its duration earlier"), check
+
+
 def test_the_domain_must_hold_along_the_whole_enclosed_flow():
     # y reaches 1/2 at some time below 0.6 s: a run of 0.6 s leaves the domain y <= 1/2
     th = Theorem("t.dom", And(x == 1, y == 0), loop(ode({x: -x * y, y: x**2}, y <= F(1, 2))), x >= 0.99)
