@@ -108,7 +108,7 @@ class IntervalValue:
         raise TypeError("an interval is not a truth value")
 
     def __float__(self) -> float:
-        return float(self.iv.mid)  # for margins and plots only, never for a decision
+        return float(self.iv.mid.a)  # for margins and plots only, never for a decision
 
     @property
     def width(self) -> float:

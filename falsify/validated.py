@@ -56,8 +56,8 @@ class EnclosingInterpreter(Interpreter):
         if not self._holds(flow.domain_holds, s, p.domain):
             raise Blocked("evolution domain false")
         tau = Fraction(self.chooser.duration(lambda u: 0.0))
-        system = self._system(p)
         try:
+            system = self._system(p)
             params = [_iv(self._value(self.c(atom), s)) for atom in system.param_atoms]
             box = enclose(system, [_iv(s[n]) for n in system.names], params, tau)
         except CannotEnclose as exc:
@@ -108,11 +108,12 @@ def confirm_enclosed(theorem: Theorem, script, max_steps: int, families: tuple[i
 
 def _confirm(theorem: Theorem, script, max_steps: int, families: tuple[int, int],
              initial: dict[str, Any] | None) -> tuple[str, str]:
-    interp = EnclosingInterpreter(theorem, max_steps, families)
+    interp = None
     try:
+        interp = EnclosingInterpreter(theorem, max_steps, families)
         run = interp.run(Scripted(script), initial)
     except (Diverged, Inexact, Rejected, Blocked, CannotEnclose, ArithmeticError) as exc:
-        return "", interp.why or f"the replay stopped: {exc}"
+        return "", (interp.why if interp else "") or f"the replay stopped: {exc}"
     except Exception as exc:  # noqa: BLE001 - e.g. an interval where only a number will do (an
         # array index): no confirmation, and the reason shown, never a crash of the search
         return "", f"the interval replay failed: {type(exc).__name__}: {exc}"
