@@ -209,7 +209,7 @@ def _step(system: TaylorSystem, x: list, p: list, h: Fraction):
         swept.append(along)
     # the next step: as long as keeps this remainder within the tolerance (it grows as h^k)
     grow = 2.0 if worst <= 0 else min(2.0, 0.9 * worst ** (-1 / system.order))
-    return end, swept, Fraction(grow).limit_denominator(64)
+    return end, swept, Fraction(max(1, int(grow * 16)), 16)  # dyadic: times keep small denominators
 
 
 def _remainder(term):

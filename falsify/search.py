@@ -30,7 +30,7 @@ from typing import Any
 
 from certiloop.falsify.choosers import Diverged, HypothesisChooser, Recording, Scripted
 from certiloop.falsify.constant_pool import pinned_constants
-from certiloop.falsify.depth import FLOAT_TOLERANCE, _deep, _depth, float_only  # noqa: F401 (re-exported)
+from certiloop.falsify.depth import FLOAT_ONLY, FLOAT_TOLERANCE, _deep, _depth, float_only  # noqa: F401
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
@@ -75,6 +75,11 @@ class Falsification:
     def verdict(self) -> str:
         return "refuted" if self.found else "no counterexample"
 
+    @property
+    def validated(self) -> bool:
+        """The run was re-checked exactly or by interval enclosures, not in floats only."""
+        return self.found and not self.check.startswith(FLOAT_ONLY)
+
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"model": self.model, "verdict": self.verdict, "examples": self.examples,
                                "seconds": round(self.seconds, 4), "counterexample": None,
@@ -82,6 +87,7 @@ class Falsification:
         if self.run is not None:
             out["counterexample"] = {"trace": [c.to_json() for c in self.run.checkpoints],
                                      "violated": self.run.violated, "check": self.check,
+                                     "validated": self.validated,
                                      "steps": self.run.checkpoints[-1].step}
         return out
 

@@ -124,6 +124,7 @@ FALSE_XY = Theorem("t.xy", And(x == 1, y == 0), loop(ode({x: -x * y, y: x**2}, y
 def test_a_counterexample_through_a_flow_without_closed_form_is_validated():
     found = falsify(FALSE_XY, Options(seed=0, database=None, shrink=False))
     assert found.found and found.check.startswith("confirmed with interval enclosures"), found.check
+    assert found.validated and found.to_json()["counterexample"]["validated"]
 
 
 def test_a_violation_within_the_enclosure_is_not_claimed():
@@ -209,3 +210,35 @@ def test_a_batch_candidate_is_confirmed_by_enclosure():
     script = [("integer", 1), ("duration", 2.5)]
     run, check = confirm_candidate(FALSE_XY, {"x": 1.0, "y": 0.0}, script, 3, (1, 8))
     assert run is not None and run.violated and check.startswith("confirmed with interval enclosures")
+
+
+@pytest.mark.slow
+def test_nonlinear_enclosures_contain_an_independent_high_precision_solution():
+    # Van der Pol, Lotka-Volterra and a cubic system: mpmath's own Taylor ODE solver at 40
+    # digits (other code, no intervals) must land in every enclosure
+    import random
+
+    from mpmath import mpf, odefun
+
+    systems = [
+        (ode({x: y, y: (1 - x**2) * y - x}), lambda t, v: [v[1], (1 - v[0]**2) * v[1] - v[0]]),
+        (ode({x: x - x * y, y: x * y - y}), lambda t, v: [v[0] - v[0] * v[1], v[0] * v[1] - v[1]]),
+        (ode({x: -x**3 + y, y: -x - F(1, 3) * y}), lambda t, v: [-v[0]**3 + v[1], -v[0] - v[1] / 3]),
+    ]
+    rng = random.Random(7)
+    enclosed = 0
+    for eq, rhs in systems:
+        system = TaylorSystem(eq)
+        for _ in range(3):
+            x0, y0 = F(rng.randint(1, 200), 100), F(rng.randint(-100, 100), 100)
+            tau = F(rng.randint(1, 250), 100)
+            try:
+                box = enclose(system, [x0, y0], [], tau)
+            except CannotEnclose:  # Lotka-Volterra from y < 0 may blow up: no claim is fine
+                continue
+            enclosed += 1
+            with mp.workdps(40):
+                real = lambda q: mpf(q.numerator) / q.denominator  # noqa: E731
+                end = odefun(rhs, 0, [real(x0), real(y0)])(real(tau))
+            assert all(v in b for v, b in zip(end, box.end)), (eq, x0, y0, tau)
+    assert enclosed >= 6
