@@ -4,8 +4,9 @@ Before hypothesis searches run by run, a model the batch simulator compiles is r
 vectorised batches whose decisions come from numpy's generator seeded with the search's
 seed (the same verdict for the same seed). A violating run of a batch is a candidate only:
 the tree-walking interpreter replays its initial state and decisions, in exact rational
-arithmetic where the flows have closed forms, else in floating point with a violation
-deeper than the search's tolerance — the check every reported counterexample passes. A
+arithmetic where the flows have closed forms, else with validated enclosures of the flows
+(`validated.py`), else in floating point (so named) with a violation deeper than the
+search's tolerance — the check every reported counterexample passes. A
 candidate that does not replay is dropped.
 """
 
@@ -19,7 +20,7 @@ import numpy as np
 
 from certiloop.falsify.batch import compiled
 from certiloop.falsify.choosers import Diverged, Scripted
-from certiloop.falsify.depth import _deep, _depth
+from certiloop.falsify.depth import _deep, float_only
 from certiloop.falsify.evaluate import Blocked, Compiler, NeedValue
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
@@ -83,16 +84,24 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
     except failures:
         run = None
     exact = Interpreter(theorem, exact=True, max_steps=max_steps, families=families)
+    start = exact_initial(theorem, initial, exact.c)
+    why = ""
     try:
-        exact_run = exact.run(Scripted(script), exact_initial(theorem, initial, exact.c))
+        exact_run = exact.run(Scripted(script), start)
         if exact_run.violated is not None:
             shown = run if run is not None and run.violated is not None else exact_run
             return shown, "replayed in exact rational arithmetic"
+    except Inexact:  # a flow without a closed form: follow it by validated enclosures
+        from certiloop.falsify.validated import confirm_enclosed
+
+        deep = run is not None and run.violated is not None and _deep(run)
+        validated, why = confirm_enclosed(theorem, script, max_steps, families, start, retreat=deep)
+        if validated and run is not None and run.violated is not None:
+            return run, validated
     except failures:
         pass
     if run is not None and run.violated is not None and _deep(run):
-        worst, tolerance = _depth(run)
-        return run, f"floating point: violated by {-worst:.3g}, beyond the tolerance {tolerance:.1g}"
+        return run, float_only(run, why)
     return None, ""
 
 

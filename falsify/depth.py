@@ -9,6 +9,7 @@ from typing import Any
 from certiloop.falsify.interpreter import Run
 
 FLOAT_TOLERANCE = 1e-6  # relative: a float-only violation must be deeper than this
+FLOAT_ONLY = "floating point only"  # how a check starts that nothing exact or validated confirmed
 
 
 def _depth(run: Run) -> tuple[float, float]:
@@ -29,3 +30,13 @@ def _numbers(state: dict[str, Any]):
             yield from _numbers(v)
         elif isinstance(v, float):
             yield v
+
+
+def float_only(run: Run, why: str = "") -> str:
+    """The float check, for a run no exact or validated replay confirmed, named as such and
+    with why the enclosures failed (or "" if rounding could explain the violation)."""
+    worst, tolerance = _depth(run)
+    if worst < -tolerance:
+        return (f"{FLOAT_ONLY}: violated by {-worst:.3g}, beyond the tolerance {tolerance:.1g} "
+                f"(not validated{': ' + why if why else ''})")
+    return ""

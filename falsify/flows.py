@@ -75,6 +75,8 @@ class Flow:
             raise Blocked("the evolution domain does not hold at the start")
         if self.exact:
             tau = Fraction(duration(lambda u: 0.0))
+            if tau == 0 and self.symbolic is None:  # no time passes: exact without a closed form
+                return dict(state), tau, [(0, state)]
             self._check_exact(state, tau)
             return self.at(state, tau), tau, [(0, state), (tau, self.at(state, tau))]
         trajectory, longest = _remembered(*self._trajectory(state, horizon))

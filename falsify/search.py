@@ -11,9 +11,11 @@ run to a short one with round values, and keeps its example database in the proj
 folder so a failure found once is tried first the next time.
 
 A violation is reported only after it was re-checked: replayed decision by decision in
-exact rational arithmetic, or, where that is impossible (irrational unit normals, ODEs
-without a closed form), only if the guarantee is violated by more than a tolerance far
-above floating-point error.
+exact rational arithmetic; through ODEs without a closed form, with validated interval
+enclosures of their flows (`validated.py`); where neither works (irrational unit normals,
+a flow that cannot be enclosed) only if the guarantee is violated by more than a tolerance
+far above floating-point error, and the check then says "floating point only (not
+validated: why)".
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ from typing import Any
 
 from certiloop.falsify.choosers import Diverged, HypothesisChooser, Recording, Scripted
 from certiloop.falsify.constant_pool import pinned_constants
-from certiloop.falsify.depth import FLOAT_TOLERANCE, _deep, _depth  # noqa: F401 (re-exported)
+from certiloop.falsify.depth import FLOAT_ONLY, FLOAT_TOLERANCE, _deep, _depth, float_only  # noqa: F401
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
@@ -37,6 +39,9 @@ from certiloop.models.lang.theorem import Theorem
 SHRINK_SECONDS = 15  # hypothesis shrinks for up to 5 minutes by default; a trace this
 # short is readable, and CI must not wait minutes for a smaller one
 DEFAULT_DATABASE = Path(".certiloop") / "hypothesis"
+MAX_ENCLOSED = 8  # near misses replayed with enclosures while searching (each costs up to a second)
+ENCLOSE_ABOVE = 1e-2  # ... if deeper than this share of the float tolerance: shallower ones are
+# within the integration's error (flows.RTOL), where a safe model's near misses sit by the hundred
 
 
 @dataclass
@@ -70,6 +75,11 @@ class Falsification:
     def verdict(self) -> str:
         return "refuted" if self.found else "no counterexample"
 
+    @property
+    def validated(self) -> bool:
+        """The run was re-checked exactly or by interval enclosures, not in floats only."""
+        return self.found and not self.check.startswith(FLOAT_ONLY)
+
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"model": self.model, "verdict": self.verdict, "examples": self.examples,
                                "seconds": round(self.seconds, 4), "counterexample": None,
@@ -77,6 +87,7 @@ class Falsification:
         if self.run is not None:
             out["counterexample"] = {"trace": [c.to_json() for c in self.run.checkpoints],
                                      "violated": self.run.violated, "check": self.check,
+                                     "validated": self.validated,
                                      "steps": self.run.checkpoints[-1].step}
         return out
 
@@ -106,7 +117,7 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
                                  outcome.check, outcome.script or [], phase="batch", initial=outcome.initial)
         batched = outcome.runs
     interp = Interpreter(theorem, max_steps=opts.max_steps, families=opts.families)
-    count = {"examples": 0, "first": 0}
+    count = {"examples": 0, "first": 0, "near": 0}
 
     def one_run(data) -> None:
         count["examples"] += 1
@@ -121,7 +132,13 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
         if run.violated is not None:
             # a violation far beyond rounding needs no exact replay while hypothesis shrinks;
             # the reported run is replayed exactly once at the end
-            check = "deep" if _deep(run) else confirm(theorem, chooser.script, run, opts)
+            worst, tolerance = _depth(run)
+            if worst < -tolerance:
+                check = "deep"
+            else:
+                enclose = count["near"] < MAX_ENCLOSED and -worst > ENCLOSE_ABOVE * tolerance
+                count["near"] += enclose
+                check = confirm(theorem, chooser.script, run, opts, enclose=enclose)
             if check:
                 count["first"] = count["first"] or count["examples"]
                 raise _Found(run, check, chooser.script)
@@ -184,17 +201,24 @@ def _literals(theorem: Theorem) -> set:
     return found
 
 
-def confirm(theorem: Theorem, script, run: Run, opts: Options) -> str:
-    """How a violating float run was re-checked, or "" if it could not be."""
+def confirm(theorem: Theorem, script, run: Run, opts: Options, enclose: bool = True) -> str:
+    """How a violating float run was re-checked, or "" if it could not be: exactly, else
+    (flows without a closed form, unless `enclose` is False) by validated enclosures, else
+    in floating point beyond a tolerance, which the message says is not validated."""
     exact = Interpreter(theorem, exact=True, max_steps=opts.max_steps, families=opts.families)
+    why = ""
     try:
         if exact.run(Scripted(script)).violated is not None:
             return "replayed in exact rational arithmetic"
-    except (Diverged, Inexact, Rejected, Blocked, ZeroDivisionError, OverflowError):
+    except Inexact:  # a flow without a closed form: follow it by validated enclosures
+        from certiloop.falsify.validated import confirm_enclosed
+
+        validated, why = (confirm_enclosed(theorem, script, opts.max_steps, opts.families, retreat=_deep(run))
+                          if enclose else ("", "enclosures not tried"))
+        if validated:
+            return validated
+    except (Diverged, Rejected, Blocked, ZeroDivisionError, OverflowError):
         pass
-    worst, tolerance = _depth(run)
-    if worst < -tolerance:
-        return f"floating point: violated by {-worst:.3g}, beyond the tolerance {tolerance:.1g}"
-    return ""
+    return float_only(run, why)
 
 
