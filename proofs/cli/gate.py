@@ -99,6 +99,8 @@ class GateEntry:
         return cls(**keep, cached=True)
 
 
+AHEAD = 2  # falsifiers queued ahead of the model being proved: while the main process builds
+# the next obligations, both workers have a falsifier to run (22-model gate: 45.0 s -> 41.2 s)
 REFUTED_FACTOR = 10  # a model expected refuted may take 10x the examples: the search stops at
 # its first violating run, so this costs only when there is none (some seeds need 500+)
 
@@ -163,9 +165,9 @@ def run_gate(theorems: list[Theorem], start_prover: Callable[[], Prover], rlimit
     hits = [cache.get(key) if cache else None for key in keys]
     todo = [i for i, hit in enumerate(hits) if hit is None]
     prover = start_prover() if todo else None
-    # the next model's falsifier is queued before this model's obligations, so the workers
-    # always have it to run while the proof waits on its last obligations
-    falsifiers = dict.fromkeys(todo[:1], prover.submit(falsify_task, theorems[todo[0]], opts)) if todo else {}
+    # the next models' falsifiers are queued before this model's obligations, so the workers
+    # always have one to run while the proof waits on its last obligations
+    falsifiers = {i: prover.submit(falsify_task, theorems[i], opts) for i in todo[:AHEAD]}
     for i, (theorem, key, hit) in enumerate(zip(theorems, keys, hits)):
         if on_start:
             on_start(theorem.name)
@@ -173,9 +175,9 @@ def run_gate(theorems: list[Theorem], start_prover: Callable[[], Prover], rlimit
             entry = GateEntry.from_json(hit)
             entry.kernel = _kernel_check(theorem)  # the shipped file may have changed: never cached
         else:
-            after = todo[todo.index(i) + 1:]
-            if after:
-                falsifiers[after[0]] = prover.submit(falsify_task, theorems[after[0]], opts)
+            for j in todo[todo.index(i) + 1:todo.index(i) + 1 + AHEAD]:
+                if j not in falsifiers:
+                    falsifiers[j] = prover.submit(falsify_task, theorems[j], opts)
             entry = check_model(theorem, prover, opts, falsifiers.pop(i))
             if cache and entry.verdict != "unknown":  # a budget may be raised: never cached
                 cache.put(key, entry.to_json())
