@@ -4,7 +4,9 @@ This is search, outside the trusted core: the core turns any chain into obligati
 sound whatever the chain (see proofs/core/odes.py), so a wrong choice here can only fail to
 prove. The candidates for an ODE are its annotated invariants, atom by atom; for an ODE with
 neither an annotation nor a polynomial solution, the atoms of the guarantee, the domain and
-the assumptions that mention its variables (automatic invariants). Each round generates the
+the assumptions that mention its variables (automatic invariants), with the Darboux
+polynomials found by linear algebra (darboux.py) and, in a second search once the first left
+obligations open, polynomial certificates `V <= c` from an SDP (certificates.py). Each round generates the
 obligations with the current chains and discharges the links' own obligations; the first
 failing link of a chain then changes: a link that does not hold initially is dropped, one
 whose premise fails tries its next rule (dI, dbx with the quotient of p' by p as cofactor,
@@ -32,6 +34,7 @@ from certiloop.proofs.core.odes import (
 from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.core.wd import has_division
+from certiloop.proofs.engine.certificates import certificate_atoms
 from certiloop.proofs.engine.darboux import darboux_atoms
 
 MAX_ROUNDS = 40
@@ -70,15 +73,19 @@ def _usable(atom: Node, ode: ODE) -> bool:
     return True
 
 
-def candidates(theorem: Theorem, ode: ODE) -> list[Node] | None:
-    """Atoms to build the ODE's chain from, or None to leave the ODE to the core's default."""
+def candidates(theorem: Theorem, ode: ODE, certify: bool = False) -> list[Node] | None:
+    """Atoms to build the ODE's chain from, or None to leave the ODE to the core's default.
+    certify: also the SDP's certificates `V <= c` (costly, so only once the rest failed)."""
     if ode.invariants:
         return [a for inv in ode.invariants for a in conjuncts(inv)]
     if solvable(ode):
         return None
     names = {v.payload for v in ode.variables}
     seen: dict[tuple, Node] = {}
-    for source in (theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))):
+    sources = [theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))]
+    if certify:
+        sources.append(And(*certificate_atoms(theorem, ode)))
+    for source in sources:
         for atom in conjuncts(source):
             if atom.key not in seen and set(free_vars(atom)) & names and _usable(atom, ode):
                 seen[atom.key] = atom
@@ -115,14 +122,18 @@ class _Link:
         return self.options[self.tried]
 
 
-def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResult]) -> Plan | None:
+def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResult],
+              certify: bool = False) -> Plan | None:
     """A chain per ODE whose links' obligations all discharge, as far as the search gets;
-    None when no ODE of the theorem is open to planning."""
+    None when no ODE of the theorem is open to planning (with certify: to a certificate)."""
     chains: dict[tuple, list[_Link]] = {}
     for ode in odes_of(theorem.program):
-        atoms = candidates(theorem, ode)
+        atoms = candidates(theorem, ode, certify)
         if atoms:
             chains[ode.key] = [_Link(rule_options(a, ode)) for a in atoms]
+    if certify and not any(certificate_atoms(theorem, ode) for ode in odes_of(theorem.program)
+                           if ode.key in chains and not ode.invariants):
+        return None  # nothing new to try
     if not chains:
         return None
     known: dict[tuple, str] = {}  # obligation formula -> verdict (fresh names are deterministic)

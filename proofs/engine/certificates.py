@@ -1,0 +1,254 @@
+"""Polynomial barrier certificates by semidefinite programming (search, outside the trusted core).
+
+For a polynomial ODE x' = f(x) with rational coefficients in at most MAX_VARS variables, a
+sum-of-squares program (cvxpy: each "is a sum of squares" is a PSD Gram matrix over a
+monomial basis, matched coefficient by coefficient) looks for a polynomial V of degree 2, then 4,
+and a level c with
+    -V'                                 a sum of squares (so V <= c is kept: dI's premise)
+    c - V - sum l_k s_k                 a sum of squares, l >= 0 (V <= c on the initial set)
+    V - c - m_j u_j                     a sum of squares, m >= 0 (V > c where atom j fails)
+    V - eta*|x|^2                       a sum of squares (bounded sublevel sets)
+where the s_k >= 0 are the assumptions' polynomial atoms in the ODE's variables (and their
+pairwise products) and u_j >= 0 is the failure of the guarantee's atom j, with the largest
+common margin. V and c are rounded to rationals with small denominators and proposed as the
+atom `V <= c` to the planner (odeplan), which the core proves or drops with its own exact
+rules (dI's premise and the atom's initial condition, decided by z3). The solver proposes;
+nothing here decides. Any failure (solver, shape, exception) proposes nothing.
+"""
+
+from __future__ import annotations
+
+import itertools
+from fractions import Fraction
+
+import numpy as np
+import sympy
+
+from certiloop.models.lang.programs import ODE
+from certiloop.models.lang.terms import Node, cmp
+from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.core.odes import conjuncts
+from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
+
+MAX_VARS = 4
+MAX_FIELD_DEGREE = 3
+DEGREES = (2, 4)  # of V, cheapest first
+MAX_BASIS = 36  # monomials in a Gram basis: keeps each SDP small (well under a second)
+DENOMINATORS = (1, 2, 4, 10, 100, 1000)  # rounding, most readable first
+ETA = 1e-2
+Exp = tuple[int, ...]
+
+_cache: dict[tuple, list[Node]] = {}
+
+
+def certificate_atoms(theorem: Theorem, ode: ODE) -> list[Node]:
+    """Candidate atoms `V <= c` for the ODE (at most two roundings), or [] when the system or
+    the theorem is out of reach, or the solver finds nothing. Deterministic; cached per input."""
+    key = (ode.key, theorem.assumptions.key, theorem.guarantee.key)
+    if key not in _cache:
+        try:
+            _cache[key] = _propose(theorem, ode)
+        except Exception:  # noqa: BLE001 - a proposer must never stop a proof
+            _cache[key] = []
+    return _cache[key]
+
+
+def _propose(theorem: Theorem, ode: ODE) -> list[Node]:
+    table = SympyTable()
+    xs = [table.symbol(v) for v in ode.variables]
+    if not xs or len(xs) > MAX_VARS:
+        return []
+    field = [_poly(to_sympy(f, table), xs) for _, f in ode.eqs]
+    if any(f is None for f in field) or max(sum(e) for f in field for e in f) > MAX_FIELD_DEGREE:
+        return []
+    init = _sides(theorem.assumptions, xs, table, failing=False)
+    unsafe = _sides(theorem.guarantee, xs, table, failing=True)
+    if not init or not unsafe:
+        return []
+    for degree in DEGREES:
+        solved = _solve(field, init, unsafe, len(xs), degree)
+        if solved is not None:
+            return _rounded(*solved, field, xs, table)
+    return []
+
+
+def _poly(e: sympy.Expr, xs: list[sympy.Symbol]) -> dict[Exp, Fraction] | None:
+    """The coefficients of a polynomial over QQ in xs, or None (another symbol, a division)."""
+    e = sympy.expand(e)
+    if not e.free_symbols <= set(xs) or not e.is_polynomial(*xs):
+        return None
+    terms = sympy.Poly(e, *xs).terms() if e != 0 else []
+    if not all(c.is_Rational for _, c in terms):
+        return None
+    return {tuple(m): Fraction(int(c.p), int(c.q)) for m, c in terms}
+
+
+def _sides(f: Node, xs: list[sympy.Symbol], table: SympyTable, failing: bool) -> list[dict]:
+    """Polynomials s >= 0 from the atoms of f in xs alone (failing: u >= 0 where the atom
+    fails, its closure); atoms of any other shape are left out, which only weakens the SDP."""
+    out = []
+    for atom in conjuncts(f):
+        if atom.op != "cmp" or not atom.args[0].sort.is_numeric:
+            continue
+        op, (a, b) = atom.payload, atom.args
+        try:
+            d = _poly(to_sympy(a, table) - to_sympy(b, table), xs)
+        except (TypeError, ValueError):
+            continue
+        if d is None or not d:
+            continue
+        neg = {e: -c for e, c in d.items()}
+        if op in (">=", ">"):
+            out.append(neg if failing else d)
+        elif op in ("<=", "<"):
+            out.append(d if failing else neg)
+        elif op == "==" and not failing:
+            out += [d, neg]
+    return out
+
+
+def _monomials(n: int, degree: int) -> list[Exp]:
+    return [e for d in range(degree + 1) for e in sorted(
+        (e for e in itertools.product(range(d + 1), repeat=n) if sum(e) == d), reverse=True)]
+
+
+def _plus(a: Exp, b: Exp) -> Exp:
+    return tuple(i + j for i, j in zip(a, b))
+
+
+def _degree(p: dict) -> int:
+    return max((sum(e) for e in p), default=0)
+
+
+def _solve(field, init, unsafe, n, degree):
+    """(V's coefficients by monomial, c) from the SDP, or None (too big, infeasible, failed)."""
+    field_degree = max(_degree(f) for f in field)
+    # S-procedure terms: the initial atoms and their pairwise products (a box needs x*y terms)
+    terms = [p for p in init if _degree(p) <= degree]
+    terms += [_times(p, q) for i, p in enumerate(init) for q in init[i:] if _degree(p) + _degree(q) <= degree]
+    top = 2 * ((max(degree + field_degree - 1, degree, *map(_degree, unsafe)) + 1) // 2)
+    index = {e: i for i, e in enumerate(_monomials(n, top))}
+    if len(_monomials(n, top // 2)) > MAX_BASIS:
+        return None
+    import cvxpy as cp  # heavy (about a second): only once a certificate is wanted
+
+    monos = _monomials(n, degree)
+    v = cp.Variable(len(monos))
+    embed = np.zeros((len(index), len(monos)))
+    lie = np.zeros((len(index), len(monos)))
+    for k, m in enumerate(monos):
+        embed[index[m], k] = 1
+        for i, f in enumerate(field):
+            if m[i]:
+                lower = tuple(d - (j == i) for j, d in enumerate(m))
+                for e, c in f.items():
+                    lie[index[_plus(lower, e)], k] += m[i] * float(c)
+    V, dV = embed @ v, lie @ v
+    square = _vector({tuple(2 * (j == i) for j in range(n)): 1 for i in range(n)}, index)
+    one = _vector({(0,) * n: 1}, index)
+    c, t, s = cp.Variable(), cp.Variable(), cp.Variable(nonneg=True)
+    squares = [monos.index(tuple(2 * (j == i) for j in range(n))) for i in range(n)]
+    # V's scale: its x_i^2 coefficients sum to n; bounded coefficients keep the solver accurate
+    constraints = [t <= 1, s <= 1, cp.sum(v[squares]) == n, cp.norm(v, "inf") <= 100]
+    if any(f.get((0,) * n) for f in field):
+        constraints.append(s == 0)  # an equilibrium away from 0: V' = 0 there
+    constraints.append(_sos(cp, -dV - s * square, n, top // 2, index))  # strict: survives rounding
+    constraints.append(_sos(cp, V - ETA * square, n, top // 2, index))
+
+    def multiple(p: dict):  # p times a sum of squares, of V's degree at most
+        return _times_matrix(p, index) @ _sos_term(cp, n, (degree - _degree(p)) // 2, index)
+
+    init_side = (c - t) * one - V - sum((multiple(p) for p in terms), np.zeros(len(index)))
+    constraints.append(_sos(cp, init_side, n, top // 2, index))
+    for u in unsafe:
+        constraints.append(_sos(cp, V - (c + t) * one - multiple(u), n, top // 2, index))
+    problem = cp.Problem(cp.Maximize(t + s), constraints)
+    try:
+        problem.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        return None
+    if problem.status not in ("optimal", "optimal_inaccurate") or t.value is None or t.value < 1e-4:
+        return None
+    return dict(zip(monos, v.value)), float(c.value)
+
+
+def _times(p: dict, q: dict) -> dict:
+    out: dict = {}
+    for a, x in p.items():
+        for b, y in q.items():
+            out[_plus(a, b)] = out.get(_plus(a, b), 0) + x * y
+    return out
+
+
+def _vector(p: dict, index: dict) -> np.ndarray:
+    out = np.zeros(len(index))
+    for e, c in p.items():
+        out[index[e]] += float(c)
+    return out
+
+
+def _times_matrix(p: dict, index: dict) -> np.ndarray:
+    """Multiplication by p, on coefficient vectors (products beyond the index's degree: none
+    arise, the multipliers' degrees are chosen to fit)."""
+    out = np.zeros((len(index), len(index)))
+    for a, k in index.items():
+        for e, c in p.items():
+            if _plus(a, e) in index:
+                out[index[_plus(a, e)], k] += float(c)
+    return out
+
+
+def _sos_term(cp, n: int, half: int, index: dict):
+    """The coefficients of z^T Q z with z the monomials up to degree `half` and Q a PSD
+    variable: a sum of squares (a nonnegative number for half = 0)."""
+    basis = _monomials(n, half)
+    gram = np.zeros((len(index), len(basis) ** 2))
+    for i, a in enumerate(basis):
+        for j, b in enumerate(basis):
+            gram[index[_plus(a, b)], i * len(basis) + j] += 1
+    return gram @ cp.vec(cp.Variable((len(basis), len(basis)), PSD=True), order="F")
+
+
+def _sos(cp, p, n: int, half: int, index: dict):
+    """p (coefficients over index) is a sum of squares of polynomials of degree <= half."""
+    return p == _sos_term(cp, n, half, index)
+
+
+def _rounded(V: dict, c: float, field, xs, table) -> list[Node]:
+    """`V <= c` rounded to small denominators: the first two roundings under which V' <= 0
+    still holds at sample points (a cheap filter; the core's exact check decides)."""
+    scale = min(V[e] for e in V if sum(e) == 2 and max(e) == 2)
+    zero = (0,) * len(xs)
+    points = _samples(len(xs))
+    atoms: list[Node] = []
+    seen = set()
+    for den in DENOMINATORS:
+        coeffs = {e: Fraction(round(x / scale * den), den) for e, x in V.items() if e != zero}
+        coeffs = {e: q for e, q in coeffs.items() if q}
+        level = Fraction(round((c - V.get(zero, 0.0)) / scale * den), den)
+        p = sum(sympy.Rational(q.numerator, q.denominator) * sympy.Mul(*(x**k for x, k in zip(xs, e)))
+                for e, q in coeffs.items())
+        if p == 0 or (p, level) in seen or not _decreases(coeffs, field, points):
+            continue
+        seen.add((p, level))
+        atoms.append(cmp("<=", from_sympy(sympy.expand(p), table), level))
+        if len(atoms) == 2:
+            break
+    return atoms
+
+
+def _samples(n: int) -> np.ndarray:
+    rng = np.random.default_rng(0)
+    return np.concatenate([rng.uniform(-1, 1, (200, n)), rng.uniform(-10, 10, (200, n))])
+
+
+def _decreases(coeffs: dict, field, points: np.ndarray) -> bool:
+    """V' <= 0 (up to float error) at every sample point."""
+    def value(p: dict, x: np.ndarray) -> np.ndarray:
+        return sum(float(q) * np.prod(x ** np.array(e), axis=1) for e, q in p.items())
+
+    dV = 0.0
+    for i, f in enumerate(field):
+        partial = {tuple(d - (j == i) for j, d in enumerate(e)): q * e[i] for e, q in coeffs.items() if e[i]}
+        dV = dV + value(partial, points) * value(f, points)
+    return bool(np.all(dV <= 1e-9 * (1 + np.abs(dV).max())))
