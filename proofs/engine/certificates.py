@@ -19,6 +19,7 @@ nothing here decides. Any failure (solver, shape, exception) proposes nothing.
 from __future__ import annotations
 
 import itertools
+import warnings
 from fractions import Fraction
 
 import numpy as np
@@ -164,7 +165,9 @@ def _solve(field, init, unsafe, n, degree):
         constraints.append(_sos(cp, V - (c + t) * one - multiple(u), n, top // 2, index))
     problem = cp.Problem(cp.Maximize(t + s), constraints)
     try:
-        problem.solve(solver=cp.CLARABEL)
+        with warnings.catch_warnings():  # "inaccurate": the rounding and the core judge that
+            warnings.simplefilter("ignore")
+            problem.solve(solver=cp.CLARABEL)
     except cp.error.SolverError:
         return None
     if problem.status not in ("optimal", "optimal_inaccurate") or t.value is None or t.value < 1e-4:

@@ -83,8 +83,8 @@ def candidates(theorem: Theorem, ode: ODE, certify: bool = False) -> list[Node] 
     names = {v.payload for v in ode.variables}
     seen: dict[tuple, Node] = {}
     sources = [theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))]
-    if certify:
-        sources.append(And(*certificate_atoms(theorem, ode)))
+    if certify:  # first: a certificate needs no earlier link, and the rest mostly failed before
+        sources.insert(0, And(*certificate_atoms(theorem, ode)))
     for source in sources:
         for atom in conjuncts(source):
             if atom.key not in seen and set(free_vars(atom)) & names and _usable(atom, ode):
