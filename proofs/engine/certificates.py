@@ -34,7 +34,7 @@ from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
 MAX_VARS = 4
 MAX_FIELD_DEGREE = 3
 DEGREES = (2, 4)  # of V, cheapest first
-MAX_BASIS = 36  # monomials in a Gram basis: keeps each SDP small (well under a second)
+MAX_BASIS = 20  # monomials in a Gram basis: keeps each SDP small (about a second at most)
 DENOMINATORS = (1, 2, 4, 10, 100, 1000)  # rounding, most readable first
 ETA = 1e-2
 Exp = tuple[int, ...]
@@ -47,6 +47,8 @@ def certificate_atoms(theorem: Theorem, ode: ODE) -> list[Node]:
     the theorem is out of reach, or the solver finds nothing. Deterministic; cached per input."""
     key = (ode.key, theorem.assumptions.key, theorem.guarantee.key)
     if key not in _cache:
+        if len(_cache) > 256:  # a long campaign: keep memory bounded
+            _cache.clear()
         try:
             _cache[key] = _propose(theorem, ode)
         except Exception:  # noqa: BLE001 - a proposer must never stop a proof
@@ -156,8 +158,8 @@ def _solve(field, init, unsafe, n, degree):
     constraints.append(_sos(cp, -dV - s * square, n, top // 2, index))  # strict: survives rounding
     constraints.append(_sos(cp, V - ETA * square, n, top // 2, index))
 
-    def multiple(p: dict):  # p times a sum of squares, of V's degree at most
-        return _times_matrix(p, index) @ _sos_term(cp, n, (degree - _degree(p)) // 2, index)
+    def multiple(p: dict):  # p times a sum of squares, of V's degree at most (else a number)
+        return _times_matrix(p, index) @ _sos_term(cp, n, max(0, degree - _degree(p)) // 2, index)
 
     init_side = (c - t) * one - V - sum((multiple(p) for p in terms), np.zeros(len(index)))
     constraints.append(_sos(cp, init_side, n, top // 2, index))
@@ -221,6 +223,8 @@ def _rounded(V: dict, c: float, field, xs, table) -> list[Node]:
     """`V <= c` rounded to small denominators: the first two roundings under which V' <= 0
     still holds at sample points (a cheap filter; the core's exact check decides)."""
     scale = min(V[e] for e in V if sum(e) == 2 and max(e) == 2)
+    if scale <= 0:  # an inaccurate solution: no readable scale
+        return []
     zero = (0,) * len(xs)
     points = _samples(len(xs))
     atoms: list[Node] = []

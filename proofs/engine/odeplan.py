@@ -126,14 +126,15 @@ def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResu
               certify: bool = False) -> Plan | None:
     """A chain per ODE whose links' obligations all discharge, as far as the search gets;
     None when no ODE of the theorem is open to planning (with certify: to a certificate)."""
+    odes = odes_of(theorem.program)
+    if certify and not any(certificate_atoms(theorem, ode) for ode in odes
+                           if not ode.invariants and not solvable(ode)):
+        return None  # nothing new to try
     chains: dict[tuple, list[_Link]] = {}
-    for ode in odes_of(theorem.program):
+    for ode in odes:
         atoms = candidates(theorem, ode, certify)
         if atoms:
             chains[ode.key] = [_Link(rule_options(a, ode)) for a in atoms]
-    if certify and not any(certificate_atoms(theorem, ode) for ode in odes_of(theorem.program)
-                           if ode.key in chains and not ode.invariants):
-        return None  # nothing new to try
     if not chains:
         return None
     known: dict[tuple, str] = {}  # obligation formula -> verdict (fresh names are deterministic)
