@@ -84,6 +84,24 @@ def test_near_miss_is_not_proved_and_really_false(case, b):
     assert max_x(rhs, b) > 1
 
 
+@pytest.mark.slow
+@settings(max_examples=12, deadline=None)
+@given(st.integers(1, 3), st.integers(-3, 3), st.integers(-3, 3), st.integers(1, 3),
+       st.sampled_from([Fraction(1, 4), Fraction(1, 2)]))
+def test_whatever_a_certificate_proves_holds_along_the_flow(p, q, s, u, r):
+    """Random linear systems x' = -p x + q y, y' = s x - u y (mostly stable, mostly
+    beyond the Darboux polynomials) from the disc of radius r: if x <= 1 is proved, scipy
+    agrees from points of the disc's boundary (an independent witness)."""
+    system = ode({x: -p * x + q * y, y: s * x - u * y})
+    if verdict(x**2 + y**2 <= r * r, system, x <= 1) != "proved":
+        return
+    for angle in np.linspace(0.0, 2 * np.pi, 24, endpoint=False):
+        start = [float(r) * np.cos(angle), float(r) * np.sin(angle)]
+        sol = solve_ivp(lambda _t, z: [-p * z[0] + q * z[1], s * z[0] - u * z[1]], (0.0, 10.0), start,
+                        rtol=1e-10, atol=1e-12, dense_output=True)
+        assert sol.sol(np.linspace(0.0, 10.0, 1001))[0].max() <= 1 + 1e-9
+
+
 # ----------------------------------------------------------------- the exact check decides
 
 CERTIFICATE = y**2 + 2 * x**2 + x * y <= 1  # what the SDP gives the damped oscillator from x^2+y^2 <= 1/4
