@@ -22,7 +22,7 @@ from certiloop.models import And, Reals, Theorem, ode
 from certiloop.proofs.core.odes import OdeStep
 from certiloop.proofs.core.vcgen import generate
 from certiloop.proofs.engine import Prover, certificates, odeplan
-from certiloop.proofs.engine.certificates import certificate_atoms
+from certiloop.proofs.engine.certificates import certificate_atoms, certificate_steps
 
 x, y, z, w, v, a = Reals("x y z w v a")
 HALF = Fraction(1, 2)
@@ -53,11 +53,15 @@ def max_x(rhs, b, T=8.0) -> float:
 DAMPED = (ode({x: y, y: -2 * x - y}), lambda x, y: [y, -2 * x - y])
 DUFFING = (ode({x: y, y: -x - x**3 - y}), lambda x, y: [y, -x - x**3 - y])
 QUADRATIC = (ode({x: -x + x * y, y: -y - x**2}), lambda x, y: [-x + x * y, -y - x**2])
+# reversed Van der Pol: stable only inside its limit cycle, so no V decreases everywhere
+VDP = (ode({x: -y, y: x + (x**2 - 1) * y}), lambda x, y: [-y, x + (x**2 - 1) * y])
 
 # (system, b of the initial box); the guarantee is x <= 1
 TRUE_CASES = [
     pytest.param(DAMPED, Fraction(1), id="damped oscillator, V of degree 2"),  # scipy: max x = 0.76
     pytest.param(DUFFING, Fraction(1), id="damped Duffing oscillator, V of degree 4"),  # max x = 0.81
+    # a level set of the linearisation's V, kept by dbx with the SDP's cofactor g
+    pytest.param(VDP, HALF, id="reversed Van der Pol, level set and cofactor"),  # max x = 0.66
     # near the limit (scipy: max x = 0.96), degree 2 fails; an 8-term quartic V proves it
     pytest.param(DAMPED, Fraction(3, 2), id="damped oscillator, V of degree 4", marks=pytest.mark.slow),
     pytest.param(QUADRATIC, Fraction(6, 5), id="quadratic field, V of degree 2", marks=pytest.mark.slow),
@@ -65,6 +69,7 @@ TRUE_CASES = [
 FALSE_CASES = [  # the same systems from a slightly bigger box: some flow passes x = 1
     pytest.param(DAMPED, Fraction(2), id="damped oscillator"),  # scipy: max x = 1.17
     pytest.param(DUFFING, Fraction(3, 2), id="damped Duffing oscillator"),  # scipy: max x = 1.004
+    pytest.param(VDP, Fraction(3, 2), id="reversed Van der Pol"),  # scipy: max x = 1.51
 ]
 
 
@@ -138,6 +143,25 @@ def test_the_certificate_and_garbage_near_it(monkeypatch):
     # fed to the planner in place of the SDP's answer, garbage proves nothing
     monkeypatch.setattr(odeplan, "certificate_atoms", lambda theorem, ode: [garbage])
     assert verdict(x**2 + y**2 <= Fraction(1, 4), system, x <= 1) != "proved"
+
+
+def test_the_level_set_needs_its_own_cofactor():
+    """Under reversed Van der Pol the SDP gives V <= 1 with V = 13/10 x^2 - 4/5 xy + y^2 and
+    g = -1/2 + x^2 + y^2 - xy/2: V' is positive far away, so dI fails; dbx with g proves it
+    (-V' >= g (1 - V) everywhere); a perturbed g does not."""
+    system = VDP[0]
+    theorem = Theorem("t", box(HALF), system, x <= 1)
+    [step] = certificate_steps(theorem, system)
+    assert step.method == "dbx" and str(step.atom) == "y^2 + 13*x^2/10 + (-4)*x*y/5 <= 1"
+
+    def premise(step):
+        obs = [o for o in generate(theorem, {system.key: (step,)}) if "derivative" in o.path]
+        with Prover(jobs=1) as p:
+            return all(r.verdict == "proved" for r in p._discharge(obs, None, p.budget))
+
+    assert premise(step)
+    assert not premise(OdeStep(step.atom))
+    assert not premise(OdeStep(step.atom, "dbx", step.cofactor + 2 * x * y))
 
 
 @settings(max_examples=8, deadline=None)

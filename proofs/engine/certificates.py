@@ -11,9 +11,12 @@ and a level c with
 where the s_k >= 0 are the assumptions' polynomial atoms in the ODE's variables (and their
 pairwise products) and u_j >= 0 is the failure of the guarantee's atom j, with the largest
 common margin. V and c are rounded to rationals with small denominators and proposed as the
-atom `V <= c` to the planner (odeplan), which the core proves or drops with its own exact
-rules (dI's premise and the atom's initial condition, decided by z3). The solver proposes;
-nothing here decides. Any failure (solver, shape, exception) proposes nothing.
+atom `V <= c` to the planner (odeplan). When no V decreases everywhere (a stable equilibrium
+whose basin is bounded), the fallback takes V = x^T P x from the linearisation at 0, a level c
+between the initial set and the failures, and a polynomial g with -V' - g (c - V) a sum of
+squares: `V <= c` with the rule dbx g. The core proves each atom or drops it with its own exact
+rules (the premise and the initial condition, decided by z3). The solver proposes; nothing
+here decides. Any failure (solver, shape, exception) proposes nothing.
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ import sympy
 from certiloop.models.lang.programs import ODE
 from certiloop.models.lang.terms import Node, cmp
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.core.odes import conjuncts
+from certiloop.proofs.core.odes import OdeStep, conjuncts
 from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
 
 MAX_VARS = 4
@@ -39,12 +42,17 @@ DENOMINATORS = (1, 2, 4, 10, 100, 1000)  # rounding, most readable first
 ETA = 1e-2
 Exp = tuple[int, ...]
 
-_cache: dict[tuple, list[Node]] = {}
+_cache: dict[tuple, list[OdeStep]] = {}
 
 
 def certificate_atoms(theorem: Theorem, ode: ODE) -> list[Node]:
     """Candidate atoms `V <= c` for the ODE (at most two roundings), or [] when the system or
     the theorem is out of reach, or the solver finds nothing. Deterministic; cached per input."""
+    return [step.atom for step in certificate_steps(theorem, ode)]
+
+
+def certificate_steps(theorem: Theorem, ode: ODE) -> list[OdeStep]:
+    """The certificates with the rule to try first: dI, or dbx with the SDP's cofactor."""
     key = (ode.key, theorem.assumptions.key, theorem.guarantee.key)
     if key not in _cache:
         if len(_cache) > 256:  # a long campaign: keep memory bounded
@@ -56,7 +64,7 @@ def certificate_atoms(theorem: Theorem, ode: ODE) -> list[Node]:
     return _cache[key]
 
 
-def _propose(theorem: Theorem, ode: ODE) -> list[Node]:
+def _propose(theorem: Theorem, ode: ODE) -> list[OdeStep]:
     table = SympyTable()
     xs = [table.symbol(v) for v in ode.variables]
     if not xs or len(xs) > MAX_VARS:
@@ -71,8 +79,18 @@ def _propose(theorem: Theorem, ode: ODE) -> list[Node]:
     for degree in DEGREES:
         solved = _solve(field, init, unsafe, len(xs), degree)
         if solved is not None:
-            return _rounded(*solved, field, xs, table)
-    return []
+            return [OdeStep(atom) for atom in _rounded(*solved, field, xs, table)]
+    level = _level_set(field, init, unsafe, len(xs))
+    if level is None:
+        return []
+    V, c, g = level
+    return [OdeStep(cmp("<=", _term(V, xs, table), c), "dbx", _term(g, xs, table))]
+
+
+def _term(p: dict, xs: list[sympy.Symbol], table: SympyTable) -> Node:
+    e = sum(sympy.Rational(q.numerator, q.denominator) * sympy.Mul(*(x**k for x, k in zip(xs, m)))
+            for m, q in p.items())
+    return from_sympy(sympy.expand(sympy.S(e)), table)
 
 
 def _poly(e: sympy.Expr, xs: list[sympy.Symbol]) -> dict[Exp, Fraction] | None:
@@ -175,6 +193,102 @@ def _solve(field, init, unsafe, n, degree):
     if problem.status not in ("optimal", "optimal_inaccurate") or t.value is None or t.value < 1e-4:
         return None
     return dict(zip(monos, v.value)), float(c.value)
+
+
+def _level_set(field, init, unsafe, n):
+    """The fallback when no V decreases everywhere: V = x^T P x, a Lyapunov function of the
+    linearisation at the equilibrium 0, a level c between the initial set and the failures,
+    and a polynomial g with -V' >= g (c - V) everywhere (dbx: V' <= 0 where V = c, so V <= c
+    is kept however V' behaves far away). (V, c, g) rounded, or None."""
+    zero = (0,) * n
+    if any(f.get(zero) for f in field):
+        return None
+    import cvxpy as cp
+
+    units = [tuple(int(j == i) for j in range(n)) for i in range(n)]
+    A = np.array([[float(f.get(u, 0)) for u in units] for f in field])
+    P = cp.Variable((n, n), symmetric=True)
+    lyapunov = [P >> np.eye(n), A.T @ P + P @ A << -np.eye(n)]
+    if _solved(cp, cp.Problem(cp.Minimize(cp.trace(P)), lyapunov)) is None:
+        return None
+    P = P.value / min(np.diag(P.value))
+    V = {_plus(units[i], units[j]): Fraction(round(P[i, j] * (2 - (i == j)) * 10), 10)
+         for i in range(n) for j in range(i, n)}
+    V = {e: q for e, q in V.items() if q}
+    top = 2 * ((max(max(map(_degree, field)) + 1, 2, *map(_degree, unsafe)) + 1) // 2)
+    index = {e: i for i, e in enumerate(_monomials(n, top))}
+    if len(_monomials(n, top // 2)) > MAX_BASIS:
+        return None
+
+    def sos(p):
+        return _sos(cp, p, n, top // 2, index)
+
+    def multiple(p: dict):  # p times a sum of squares of degree 2 at most (else a number)
+        return _times_matrix(p, index) @ _sos_term(cp, n, max(0, 2 - _degree(p)) // 2, index)
+
+    # the levels between: init inside V <= lo, every failure outside V >= hi (S-procedure)
+    Vv, one, lo, hi = _vector(V, index), _vector({zero: 1}, index), cp.Variable(), cp.Variable()
+    terms = [p for p in init if _degree(p) <= 2]
+    terms += [_times(p, q) for i, p in enumerate(init) for q in init[i:] if _degree(p) + _degree(q) <= 2]
+    inside = [sos(lo * one - Vv - sum((multiple(p) for p in terms), np.zeros(len(index))))]
+    outside = [sos(Vv - hi * one - multiple(u)) for u in unsafe]
+    if _solved(cp, cp.Problem(cp.Minimize(lo), inside)) is None or \
+            _solved(cp, cp.Problem(cp.Maximize(hi), outside)) is None:
+        return None
+    lo, hi = float(lo.value), float(hi.value)
+    dV, square = _vector(_lie(V, field), index), _vector({_plus(u, u): 1 for u in units}, index)
+    g_monos = _monomials(n, max(map(_degree, field)) - 1)
+    for level in (lo + (hi - lo) * k for k in (0.5, 0.25, 0.75)):
+        c = next((q for q in (Fraction(round(level * d), d) for d in DENOMINATORS) if lo < q < hi), None)
+        if c is None:
+            continue
+        gap = {zero: c, **{e: -q for e, q in V.items()}}  # c - V
+        times = _times_matrix(gap, index)[:, [index[m] for m in g_monos]]
+        g, margin = cp.Variable(len(g_monos)), cp.Variable()
+        constraints = [margin <= 1, cp.norm(g, "inf") <= 100, sos(-dV - times @ g - margin * square)]
+        if _solved(cp, cp.Problem(cp.Maximize(margin), constraints)) is None or margin.value < 1e-6:
+            continue
+        for den in DENOMINATORS:
+            rounded = {m: Fraction(round(x * den), den) for m, x in zip(g_monos, g.value)}
+            rounded = {m: q for m, q in rounded.items() if q}
+            if _kept(V, c, rounded, field):
+                return V, c, rounded
+    return None
+
+
+def _solved(cp, problem):
+    """The problem's value, or None when the solver fails or finds no solution."""
+    try:
+        with warnings.catch_warnings():  # "inaccurate": the rounding and the core judge that
+            warnings.simplefilter("ignore")
+            problem.solve(solver=cp.CLARABEL)
+    except cp.error.SolverError:
+        return None
+    return problem.value if problem.status in ("optimal", "optimal_inaccurate") else None
+
+
+def _lie(V: dict, field) -> dict:
+    """V' = sum_i dV/dx_i f_i, exactly."""
+    out: dict = {}
+    for i, f in enumerate(field):
+        partial = {tuple(d - (j == i) for j, d in enumerate(e)): q * e[i] for e, q in V.items() if e[i]}
+        for e, q in _times(partial, f).items():
+            out[e] = out.get(e, 0) + q
+    return out
+
+
+def _kept(V: dict, c: Fraction, g: dict, field) -> bool:
+    """-V' - g (c - V) >= 0 (up to float error) at every sample point (a filter only)."""
+    n = len(field)
+    rest = _lie(V, field)
+    for e, q in _times(g, {(0,) * n: c, **{e: -q for e, q in V.items()}}).items():
+        rest[e] = rest.get(e, 0) + q
+    values = _value(rest, _samples(n))
+    return bool(np.all(values <= 1e-9 * (1 + np.abs(values).max())))
+
+
+def _value(p: dict, x: np.ndarray) -> np.ndarray:
+    return sum((float(q) * np.prod(x ** np.array(e), axis=1) for e, q in p.items()), np.zeros(len(x)))
 
 
 def _times(p: dict, q: dict) -> dict:

@@ -34,7 +34,7 @@ from certiloop.proofs.core.odes import (
 from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.core.wd import has_division
-from certiloop.proofs.engine.certificates import certificate_atoms
+from certiloop.proofs.engine.certificates import certificate_atoms, certificate_steps
 from certiloop.proofs.engine.darboux import darboux_atoms
 
 MAX_ROUNDS = 40
@@ -133,8 +133,11 @@ def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResu
     chains: dict[tuple, list[_Link]] = {}
     for ode in odes:
         atoms = candidates(theorem, ode, certify)
+        # a certificate's own rule first (dbx with the SDP's cofactor), then the usual ones
+        steps = certificate_steps(theorem, ode) if certify else []
+        own = {s.atom.key: [s] for s in steps if s.method != "dI"}
         if atoms:
-            chains[ode.key] = [_Link(rule_options(a, ode)) for a in atoms]
+            chains[ode.key] = [_Link(own.get(a.key, []) + rule_options(a, ode)) for a in atoms]
     if not chains:
         return None
     known: dict[tuple, str] = {}  # obligation formula -> verdict (fresh names are deterministic)
