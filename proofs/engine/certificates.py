@@ -29,7 +29,7 @@ import numpy as np
 import sympy
 
 from certiloop.models.lang.programs import ODE
-from certiloop.models.lang.terms import Node, cmp
+from certiloop.models.lang.terms import Node, Not, cmp
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.odes import OdeStep, conjuncts
 from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
@@ -108,10 +108,9 @@ def _sides(f: Node, xs: list[sympy.Symbol], table: SympyTable, failing: bool) ->
     """Polynomials s >= 0 from the atoms of f in xs alone (failing: u >= 0 where the atom
     fails, its closure); atoms of any other shape are left out, which only weakens the SDP."""
     out = []
-    for atom in conjuncts(f):
-        if atom.op != "cmp" or not atom.args[0].sort.is_numeric:
+    for op, a, b in _literals(f):
+        if not a.sort.is_numeric:
             continue
-        op, (a, b) = atom.payload, atom.args
         try:
             d = _poly(to_sympy(a, table) - to_sympy(b, table), xs)
         except (TypeError, ValueError):
@@ -126,6 +125,22 @@ def _sides(f: Node, xs: list[sympy.Symbol], table: SympyTable, failing: bool) ->
         elif op == "==" and not failing:
             out += [d, neg]
     return out
+
+
+def _literals(f: Node) -> list[tuple[str, Node, Node]]:
+    """The comparisons f is a conjunction of, negations pushed in (KeYmaera X writes
+    guarantees as `!(p <= 0)` and `!(a | b)`); other shapes are left out."""
+    if f.op == "not" and f.args[0].op == "cmp" and f.args[0].payload in _NEGATED:
+        return [(_NEGATED[f.args[0].payload], *f.args[0].args)]
+    if f.op == "not" and f.args[0].op == "or":
+        return [x for d in f.args[0].args for x in _literals(Not(d))]
+    if f.op == "cmp":
+        return [(f.payload, *f.args)]
+    parts = conjuncts(f)
+    return [x for part in parts for x in _literals(part)] if parts != (f,) else []
+
+
+_NEGATED = {"<=": ">", "<": ">=", ">=": "<", ">": "<=", "!=": "=="}
 
 
 def _monomials(n: int, degree: int) -> list[Exp]:
