@@ -190,6 +190,17 @@ def test_proposals_are_deterministic_and_only_wanted_when_the_rest_fails(monkeyp
     assert calls == []
 
 
+def test_negations_are_pushed_in():
+    """KeYmaera X's guarantees read !(p <= 0) and !(a | b): the same certificate as x <= 1."""
+    from certiloop.models import Not, Or
+
+    system = DAMPED[0]
+    plain = certificate_atoms(Theorem("t", x**2 + y**2 <= Fraction(1, 4), system, x <= 1), system)
+    for post in (Not(x - 1 > 0), Not(Or(x > 1, y > 3))):
+        got = certificate_atoms(Theorem("t", x**2 + y**2 <= Fraction(1, 4), system, post), system)
+        assert [str(a) for a in got] == [str(a) for a in plain]
+
+
 @pytest.mark.parametrize("pre, system, post", [
     (x**2 <= 1, ode({x: -x / (1 + y**2), y: -y}), x <= 2),  # not polynomial
     (And(x**2 <= 1, a >= 1), ode({x: -a * x}), x <= 2),  # a parameter

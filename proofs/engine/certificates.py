@@ -31,7 +31,7 @@ import sympy
 from certiloop.models.lang.programs import ODE
 from certiloop.models.lang.terms import Node, Not, cmp
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.core.odes import OdeStep, conjuncts
+from certiloop.proofs.core.odes import OdeStep
 from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
 
 MAX_VARS = 4
@@ -136,8 +136,9 @@ def _literals(f: Node) -> list[tuple[str, Node, Node]]:
         return [x for d in f.args[0].args for x in _literals(Not(d))]
     if f.op == "cmp":
         return [(f.payload, *f.args)]
-    parts = conjuncts(f)
-    return [x for part in parts for x in _literals(part)] if parts != (f,) else []
+    if f.op == "and":
+        return [x for part in f.args for x in _literals(part)]
+    return []
 
 
 _NEGATED = {"<=": ">", "<": ">=", ">=": "<", ">": "<=", "!=": "=="}
