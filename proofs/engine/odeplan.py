@@ -34,7 +34,7 @@ from certiloop.proofs.core.odes import (
 from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.core.wd import has_division
-from certiloop.proofs.engine.certificates import certificate_atoms, certificate_steps
+from certiloop.proofs.engine.certificates import certificate_steps
 from certiloop.proofs.engine.darboux import darboux_atoms
 
 MAX_ROUNDS = 40
@@ -73,19 +73,15 @@ def _usable(atom: Node, ode: ODE) -> bool:
     return True
 
 
-def candidates(theorem: Theorem, ode: ODE, certify: bool = False) -> list[Node] | None:
-    """Atoms to build the ODE's chain from, or None to leave the ODE to the core's default.
-    certify: also the SDP's certificates `V <= c` (costly, so only once the rest failed)."""
+def candidates(theorem: Theorem, ode: ODE) -> list[Node] | None:
+    """Atoms to build the ODE's chain from, or None to leave the ODE to the core's default."""
     if ode.invariants:
         return [a for inv in ode.invariants for a in conjuncts(inv)]
     if solvable(ode):
         return None
     names = {v.payload for v in ode.variables}
     seen: dict[tuple, Node] = {}
-    sources = [theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))]
-    if certify:  # first: a certificate needs no earlier link, and the rest mostly failed before
-        sources.insert(0, And(*certificate_atoms(theorem, ode)))
-    for source in sources:
+    for source in (theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))):
         for atom in conjuncts(source):
             if atom.key not in seen and set(free_vars(atom)) & names and _usable(atom, ode):
                 seen[atom.key] = atom
@@ -127,17 +123,17 @@ def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResu
     """A chain per ODE whose links' obligations all discharge, as far as the search gets;
     None when no ODE of the theorem is open to planning (with certify: to a certificate)."""
     odes = odes_of(theorem.program)
-    if certify and not any(certificate_atoms(theorem, ode) for ode in odes
-                           if not ode.invariants and not solvable(ode)):
+    # a certificate was made for one rule (dI, or dbx with the SDP's cofactor): only that one
+    steps = {ode.key: certificate_steps(theorem, ode) for ode in odes
+             if certify and not ode.invariants and not solvable(ode)}
+    if certify and not any(steps.values()):
         return None  # nothing new to try
     chains: dict[tuple, list[_Link]] = {}
     for ode in odes:
-        atoms = candidates(theorem, ode, certify)
-        # a certificate's own rule first (dbx with the SDP's cofactor), then the usual ones
-        steps = certificate_steps(theorem, ode) if certify else []
-        own = {s.atom.key: [s] for s in steps if s.method != "dI"}
-        if atoms:
-            chains[ode.key] = [_Link(own.get(a.key, []) + rule_options(a, ode)) for a in atoms]
+        if steps.get(ode.key):
+            chains[ode.key] = [_Link([step]) for step in steps[ode.key]]
+        elif atoms := candidates(theorem, ode):
+            chains[ode.key] = [_Link(rule_options(a, ode)) for a in atoms]
     if not chains:
         return None
     known: dict[tuple, str] = {}  # obligation formula -> verdict (fresh names are deterministic)
