@@ -5,8 +5,9 @@ sound whatever the chain (see proofs/core/odes.py), so a wrong choice here can o
 prove. The candidates for an ODE are its annotated invariants, atom by atom; for an ODE with
 neither an annotation nor a polynomial solution, the atoms of the guarantee, the domain and
 the assumptions that mention its variables (automatic invariants), with the Darboux
-polynomials found by linear algebra (darboux.py) and, in a second search once the first left
-obligations open, polynomial certificates `V <= c` from an SDP (certificates.py). Each round generates the
+polynomials found by linear algebra (darboux.py). A second search, once the first left
+obligations open, builds such an ODE's chain from polynomial certificates `V <= c` found by
+an SDP (certificates.py), each with the one rule it was made for. Each round generates the
 obligations with the current chains and discharges the links' own obligations; the first
 failing link of a chain then changes: a link that does not hold initially is dropped, one
 whose premise fails tries its next rule (dI, dbx with the quotient of p' by p as cofactor,
