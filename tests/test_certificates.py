@@ -38,15 +38,21 @@ def verdict(pre, program, post) -> str:
         return p.prove(Theorem("t", pre, program, post), search=False).verdict
 
 
-def max_x(rhs, b, T=8.0) -> float:
-    """The largest x along the flows from a 5 x 9 grid of the box (corners included)."""
+def max_x(rhs, b, T=8.0, y_max=None) -> float:
+    """The largest x along the flows from a 5 x 9 grid of the box (corners included), each
+    stopped where it leaves the domain y <= y_max if one is given."""
     best = -np.inf
+    leaves = None
+    if y_max is not None:
+        def leaves(_t, s):
+            return s[1] - float(y_max)
+        leaves.terminal = True
     for x0 in np.linspace(-0.5, 0.5, 5):
         for y0 in np.linspace(-float(b), float(b), 9):
             sol = solve_ivp(lambda _t, s: rhs(*s), (0.0, T), [x0, y0], method="DOP853",
-                            rtol=1e-9, atol=1e-12, dense_output=True)
+                            rtol=1e-9, atol=1e-12, dense_output=True, events=leaves)
             assert sol.success
-            best = max(best, sol.sol(np.linspace(0.0, T, 801))[0].max())
+            best = max(best, sol.sol(np.linspace(0.0, sol.t[-1], 801))[0].max())
     return best
 
 
@@ -105,6 +111,29 @@ def test_whatever_a_certificate_proves_holds_along_the_flow(p, q, s, u, r):
         sol = solve_ivp(lambda _t, z: [-p * z[0] + q * z[1], s * z[0] - u * z[1]], (0.0, 10.0), start,
                         rtol=1e-10, atol=1e-12, dense_output=True)
         assert sol.sol(np.linspace(0.0, 10.0, 1001))[0].max() <= 1 + 1e-9
+
+
+DOMAIN_RHS = lambda x, y: [y, -2 * x - y + y**2]  # noqa: E731
+
+
+def test_the_domain_is_assumed_where_the_flow_runs(monkeypatch):
+    """x' = y, y' = -2x - y + y^2: V' = 2y^2 (y - 1) for V = 2x^2 + y^2, nonpositive only
+    where y <= 1, the domain; the SDP uses it (S-procedure) and proves x <= 1 from the box
+    |x|, |y| <= 1/2 (scipy: flows stopped where they leave the domain keep x <= 0.6)."""
+    system = ode({x: y, y: -2 * x - y + y**2}, y <= 1)
+    assert verdict(box(HALF), system, x <= 1) == "proved"
+    assert max_x(DOMAIN_RHS, HALF, y_max=1) <= 1
+    monkeypatch.setattr(odeplan, "certificate_steps", lambda theorem, ode: [])
+    assert verdict(box(HALF), system, x <= 1) != "proved"
+
+
+@pytest.mark.slow
+def test_a_looser_domain_is_not_proved_and_really_false():
+    """The same field in the domain y <= 2 from |y| <= 1: scipy finds x = 1.06 > 1 before
+    the flow leaves the domain."""
+    loose = ode({x: y, y: -2 * x - y + y**2}, y <= 2)
+    assert verdict(box(1), loose, x <= 1) != "proved"
+    assert max_x(DOMAIN_RHS, 1, y_max=2) > 1
 
 
 # ----------------------------------------------------------------- the exact check decides

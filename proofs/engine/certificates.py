@@ -4,19 +4,21 @@ For a polynomial ODE x' = f(x) with rational coefficients in at most MAX_VARS va
 sum-of-squares program (cvxpy: each "is a sum of squares" is a PSD Gram matrix over a
 monomial basis, matched coefficient by coefficient) looks for a polynomial V of degree 2, then 4,
 and a level c with
-    -V'                                 a sum of squares (so V <= c is kept: dI's premise)
-    c - V - sum l_k s_k                 a sum of squares, l >= 0 (V <= c on the initial set)
-    V - c - m_j u_j                     a sum of squares, m >= 0 (V > c where atom j fails)
-    V - eta*|x|^2                       a sum of squares (bounded sublevel sets)
-where the s_k >= 0 are the assumptions' polynomial atoms in the ODE's variables (and their
-pairwise products) and u_j >= 0 is the failure of the guarantee's atom j, with the largest
-common margin. V and c are rounded to rationals with small denominators and proposed as the
-atom `V <= c` to the planner (odeplan). When no V decreases everywhere (a stable equilibrium
-whose basin is bounded), the fallback takes V = x^T P x from the linearisation at 0, a level c
-between the initial set and the failures, and a polynomial g with -V' - g (c - V) a sum of
-squares: `V <= c` with the rule dbx g. The core proves each atom or drops it with its own exact
-rules (the premise and the initial condition, decided by z3). The solver proposes; nothing
-here decides. Any failure (solver, shape, exception) proposes nothing.
+    -V' - sum h_i d_i                   (V <= c is kept inside the domain: dI's premise)
+    c - V - sum s_k l_k                 (V <= c on the initial set, within the domain)
+    V - c - u_j m_j - sum h_i e_i       (V > c where the guarantee's atom j fails)
+    V - eta*|x|^2                       (bounded sublevel sets)
+all sums of squares, the multipliers d, l, m, e too (S-procedure), where the h_i >= 0 are the
+domain's polynomial atoms, the s_k >= 0 those and the assumptions' atoms in the ODE's
+variables (and the assumptions' pairwise products) and u_j >= 0 the failure of atom j; with
+the largest common margin. V and c are rounded to rationals with small denominators and
+proposed as the atom `V <= c` to the planner (odeplan). When no V decreases everywhere (a
+stable equilibrium whose basin is bounded), the fallback takes V = x^T P x from the
+linearisation at 0, a level c between the initial set and the failures, and a polynomial g
+with -V' - g (c - V) a sum of squares: `V <= c` with the rule dbx g. The core proves each
+atom or drops it with its own exact rules (the premise and the initial condition, decided by
+z3). The solver proposes; nothing here decides. Any failure (solver, shape, exception)
+proposes nothing.
 """
 
 from __future__ import annotations
@@ -74,12 +76,13 @@ def _propose(theorem: Theorem, ode: ODE) -> list[OdeStep]:
         return []
     init = _sides(theorem.assumptions, xs, table, failing=False)
     unsafe = _sides(theorem.guarantee, xs, table, failing=True)
+    domain = _sides(ode.domain, xs, table, failing=False)  # the core assumes it in each premise
     if not init or not unsafe:
         return []
     for degree in DEGREES:
-        solved = _solve(field, init, unsafe, len(xs), degree)
+        solved = _solve(field, init, unsafe, domain, len(xs), degree)
         if solved is not None:
-            return [OdeStep(atom) for atom in _rounded(*solved, field, xs, table)]
+            return [OdeStep(atom) for atom in _rounded(*solved, field, domain, xs, table)]
     level = _level_set(field, init, unsafe, len(xs))
     if level is None:
         return []
@@ -157,11 +160,11 @@ def _degree(p: dict) -> int:
     return max((sum(e) for e in p), default=0)
 
 
-def _solve(field, init, unsafe, n, degree):
+def _solve(field, init, unsafe, domain, n, degree):
     """(V's coefficients by monomial, c) from the SDP, or None (too big, infeasible, failed)."""
     field_degree = max(_degree(f) for f in field)
     # S-procedure terms: the initial atoms and their pairwise products (a box needs x*y terms)
-    terms = [p for p in init if _degree(p) <= degree]
+    terms = [p for p in init + domain if _degree(p) <= degree]
     terms += [_times(p, q) for i, p in enumerate(init) for q in init[i:] if _degree(p) + _degree(q) <= degree]
     top = 2 * ((max(degree + field_degree - 1, degree, *map(_degree, unsafe)) + 1) // 2)
     index = {e: i for i, e in enumerate(_monomials(n, top))}
@@ -189,16 +192,20 @@ def _solve(field, init, unsafe, n, degree):
     constraints = [t <= 1, s <= 1, cp.sum(v[squares]) == n, cp.norm(v, "inf") <= 100]
     if any(f.get((0,) * n) for f in field):
         constraints.append(s == 0)  # an equilibrium away from 0: V' = 0 there
-    constraints.append(_sos(cp, -dV - s * square, n, top // 2, index))  # strict: survives rounding
     constraints.append(_sos(cp, V - ETA * square, n, top // 2, index))
 
-    def multiple(p: dict):  # p times a sum of squares, of V's degree at most (else a number)
-        return _times_matrix(p, index) @ _sos_term(cp, n, max(0, degree - _degree(p)) // 2, index)
+    def multiple(p: dict, limit: int = degree):  # p times a sum of squares, degree <= limit
+        return _times_matrix(p, index) @ _sos_term(cp, n, max(0, limit - _degree(p)) // 2, index)
+
+    # V' <= 0 inside the domain; strict, so that it survives rounding
+    inside = sum((multiple(h, top) for h in domain), np.zeros(len(index)))
+    constraints.append(_sos(cp, -dV - s * square - inside, n, top // 2, index))
 
     init_side = (c - t) * one - V - sum((multiple(p) for p in terms), np.zeros(len(index)))
     constraints.append(_sos(cp, init_side, n, top // 2, index))
     for u in unsafe:
-        constraints.append(_sos(cp, V - (c + t) * one - multiple(u), n, top // 2, index))
+        outside = V - (c + t) * one - multiple(u) - sum((multiple(h) for h in domain), np.zeros(len(index)))
+        constraints.append(_sos(cp, outside, n, top // 2, index))
     problem = cp.Problem(cp.Maximize(t + s), constraints)
     try:
         with warnings.catch_warnings():  # "inaccurate": the rounding and the core judge that
@@ -349,7 +356,7 @@ def _sos(cp, p, n: int, half: int, index: dict):
     return p == _sos_term(cp, n, half, index)
 
 
-def _rounded(V: dict, c: float, field, xs, table) -> list[Node]:
+def _rounded(V: dict, c: float, field, domain, xs, table) -> list[Node]:
     """`V <= c` rounded to small denominators: the first two roundings under which V' <= 0
     still holds at sample points (a cheap filter; the core's exact check decides)."""
     scale = min(V[e] for e in V if sum(e) == 2 and max(e) == 2)
@@ -357,6 +364,7 @@ def _rounded(V: dict, c: float, field, xs, table) -> list[Node]:
         return []
     zero = (0,) * len(xs)
     points = _samples(len(xs))
+    points = points[np.all([_value(h, points) >= 0 for h in domain], axis=0)] if domain else points
     atoms: list[Node] = []
     seen = set()
     for den in DENOMINATORS:
