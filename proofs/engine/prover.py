@@ -241,8 +241,8 @@ class Prover:
     def _planned(self, theorem: Theorem, results: list[ObligationResult]) -> list[ObligationResult]:
         """When obligations are open, search ODE cut chains (automatic invariants, other
         rules and orders) and keep the planned proof if it leaves fewer open; if some stay
-        open, search again with SDP certificates among the atoms (costly, hence second). All
-        are sound; the search only chooses which to report."""
+        open, search again with SDP certificates as the chains of the ODEs they cover (costly,
+        hence second). All are sound; the search only chooses which to report."""
         planning = self.budget.share(PLAN_SHARE)
         for certify in (False, True):
             plan = plan_odes(theorem, lambda ob: discharge_one(ob, planning), certify)
