@@ -4,7 +4,10 @@ This is search, outside the trusted core: the core turns any chain into obligati
 sound whatever the chain (see proofs/core/odes.py), so a wrong choice here can only fail to
 prove. The candidates for an ODE are its annotated invariants, atom by atom; for an ODE with
 neither an annotation nor a polynomial solution, the atoms of the guarantee, the domain and
-the assumptions that mention its variables (automatic invariants). Each round generates the
+the assumptions that mention its variables (automatic invariants), with the Darboux
+polynomials found by linear algebra (darboux.py). A second search, once the first left
+obligations open, builds such an ODE's chain from polynomial certificates `V <= c` found by
+an SDP (certificates.py), each with the one rule it was made for. Each round generates the
 obligations with the current chains and discharges the links' own obligations; the first
 failing link of a chain then changes: a link that does not hold initially is dropped, one
 whose premise fails tries its next rule (dI, dbx with the quotient of p' by p as cofactor,
@@ -32,6 +35,7 @@ from certiloop.proofs.core.odes import (
 from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.core.wd import has_division
+from certiloop.proofs.engine.certificates import certificate_steps
 from certiloop.proofs.engine.darboux import darboux_atoms
 
 MAX_ROUNDS = 40
@@ -115,13 +119,21 @@ class _Link:
         return self.options[self.tried]
 
 
-def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResult]) -> Plan | None:
+def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResult],
+              certify: bool = False) -> Plan | None:
     """A chain per ODE whose links' obligations all discharge, as far as the search gets;
-    None when no ODE of the theorem is open to planning."""
+    None when no ODE of the theorem is open to planning (with certify: to a certificate)."""
+    odes = odes_of(theorem.program)
+    # a certificate was made for one rule (dI, or dbx with the SDP's cofactor): only that one
+    steps = {ode.key: certificate_steps(theorem, ode) for ode in odes
+             if certify and not ode.invariants and not solvable(ode)}
+    if certify and not any(steps.values()):
+        return None  # nothing new to try
     chains: dict[tuple, list[_Link]] = {}
-    for ode in odes_of(theorem.program):
-        atoms = candidates(theorem, ode)
-        if atoms:
+    for ode in odes:
+        if steps.get(ode.key):
+            chains[ode.key] = [_Link([step]) for step in steps[ode.key]]
+        elif atoms := candidates(theorem, ode):
             chains[ode.key] = [_Link(rule_options(a, ode)) for a in atoms]
     if not chains:
         return None

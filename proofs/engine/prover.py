@@ -240,15 +240,20 @@ class Prover:
 
     def _planned(self, theorem: Theorem, results: list[ObligationResult]) -> list[ObligationResult]:
         """When obligations are open, search ODE cut chains (automatic invariants, other
-        rules and orders) and keep the planned proof if it leaves fewer open. Both are
-        sound; the search only chooses which to report."""
+        rules and orders) and keep the planned proof if it leaves fewer open; if some stay
+        open, search again with SDP certificates as the chains of the ODEs they cover (costly,
+        hence second). All are sound; the search only chooses which to report."""
         planning = self.budget.share(PLAN_SHARE)
-        plan = plan_odes(theorem, lambda ob: discharge_one(ob, planning))
-        if not plan:
-            return results
-        planned = self._discharge(generate(theorem, plan), None, self.budget)
-        open_now = sum(r.verdict != "proved" for r in results)
-        return planned if sum(r.verdict != "proved" for r in planned) < open_now else results
+        for certify in (False, True):
+            plan = plan_odes(theorem, lambda ob: discharge_one(ob, planning), certify)
+            if not plan:
+                continue
+            planned = self._discharge(generate(theorem, plan), None, self.budget)
+            if sum(r.verdict != "proved" for r in planned) < sum(r.verdict != "proved" for r in results):
+                results = planned
+            if all(r.verdict == "proved" for r in results):
+                break
+        return results
 
     def _vacuity(self, theorem: Theorem, result: TheoremResult) -> None:
         """The step has a run from every state it can start in (obligations), and here is
