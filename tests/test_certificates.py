@@ -21,7 +21,7 @@ from scipy.integrate import solve_ivp
 from certiloop.models import And, Reals, Theorem, ode
 from certiloop.proofs.core.odes import OdeStep
 from certiloop.proofs.core.vcgen import generate
-from certiloop.proofs.engine import Prover, certificates, odeplan
+from certiloop.proofs.engine import Prover, certificates
 from certiloop.proofs.engine.certificates import certificate_atoms, certificate_steps
 
 x, y, z, w, v, a = Reals("x y z w v a")
@@ -84,7 +84,7 @@ def test_proved_only_with_a_certificate_and_witnessed(case, b, monkeypatch):
     system, rhs = case
     assert verdict(box(b), system, x <= 1) == "proved"
     assert max_x(rhs, b) <= 1
-    monkeypatch.setattr(odeplan, "certificate_steps", lambda theorem, ode: [])
+    monkeypatch.setattr(certificates, "certificate_steps", lambda theorem, ode: [])
     assert verdict(box(b), system, x <= 1) != "proved"
 
 
@@ -123,7 +123,7 @@ def test_the_domain_is_assumed_where_the_flow_runs(monkeypatch):
     system = ode({x: y, y: -2 * x - y + y**2}, y <= 1)
     assert verdict(box(HALF), system, x <= 1) == "proved"
     assert max_x(DOMAIN_RHS, HALF, y_max=1) <= 1
-    monkeypatch.setattr(odeplan, "certificate_steps", lambda theorem, ode: [])
+    monkeypatch.setattr(certificates, "certificate_steps", lambda theorem, ode: [])
     assert verdict(box(HALF), system, x <= 1) != "proved"
 
 
@@ -170,7 +170,7 @@ def test_the_certificate_and_garbage_near_it(monkeypatch):
     V = sol.y[0] ** 2 + sol.y[0] * sol.y[1] + sol.y[1] ** 2
     assert V[-1] > V[0]
     # fed to the planner in place of the SDP's answer, garbage proves nothing
-    monkeypatch.setattr(odeplan, "certificate_steps", lambda theorem, ode: [OdeStep(garbage)])
+    monkeypatch.setattr(certificates, "certificate_steps", lambda theorem, ode: [OdeStep(garbage)])
     assert verdict(x**2 + y**2 <= Fraction(1, 4), system, x <= 1) != "proved"
 
 
@@ -213,7 +213,7 @@ def test_proposals_are_deterministic_and_only_wanted_when_the_rest_fails(monkeyp
     assert [str(a) for a in certificate_atoms(theorem, system)] == first
     assert first[0] == str(CERTIFICATE)
     calls = []
-    monkeypatch.setattr(odeplan, "certificate_steps", lambda th, o: calls.append(o) or [])
+    monkeypatch.setattr(certificates, "certificate_steps", lambda th, o: calls.append(o) or [])
     assert verdict(x > 0, ode({x: -x}), x > 0) == "proved"  # solved: no search
     assert verdict(box(HALF), QUADRATIC[0], x <= 1) == "proved"  # the first search suffices
     assert calls == []

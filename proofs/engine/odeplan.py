@@ -35,7 +35,6 @@ from certiloop.proofs.core.odes import (
 from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.core.wd import has_division
-from certiloop.proofs.engine.certificates import certificate_steps
 from certiloop.proofs.engine.darboux import darboux_atoms
 
 MAX_ROUNDS = 40
@@ -124,9 +123,13 @@ def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResu
     """A chain per ODE whose links' obligations all discharge, as far as the search gets;
     None when no ODE of the theorem is open to planning (with certify: to a certificate)."""
     odes = odes_of(theorem.program)
-    # a certificate was made for one rule (dI, or dbx with the SDP's cofactor): only that one
-    steps = {ode.key: certificate_steps(theorem, ode) for ode in odes
-             if certify and not ode.invariants and not solvable(ode)}
+    steps = {}
+    if certify:  # imported here: numpy and the SDP code cost every CLI run 0.08 s otherwise
+        from certiloop.proofs.engine.certificates import certificate_steps
+
+        # a certificate was made for one rule (dI, or dbx with the SDP's cofactor): only that one
+        steps = {ode.key: certificate_steps(theorem, ode) for ode in odes
+                 if not ode.invariants and not solvable(ode)}
     if certify and not any(steps.values()):
         return None  # nothing new to try
     chains: dict[tuple, list[_Link]] = {}
