@@ -18,7 +18,7 @@ from fractions import Fraction
 from typing import Any
 
 from certiloop.falsify.evaluate import Blocked, NeedValue, Table
-from certiloop.falsify.state import Rejected, get, put, remove, solve_linear
+from certiloop.falsify.state import Rejected, get, put, quadratic_points, remove, solve_linear
 from certiloop.models.lang.terms import INT, Node
 
 REPAIR_PASSES = 3
@@ -213,6 +213,16 @@ def _repair(interp, atom: Node, env: dict, s, counts: Counter, chooser, done_edg
             if _quiet(fn, s):
                 return True
             put(s, key, old) if old is not None else remove(s, key)
+        if not interp.exact:  # quadratic in a value (gap*(w - gap) >= k*Y): its vertex or roots
+            for key in leaves:
+                if _is_int(interp, key) or get(s, key) is None:
+                    continue
+                old = get(s, key)
+                for x in quadratic_points(lambda st: lhs(st) - rhs(st), key, s, edge):
+                    put(s, key, x)
+                    if _quiet(fn, s):
+                        return True
+                put(s, key, old)
         return atom.payload == "==" and _scale(interp, atom, fn, leaves, s)
 
 

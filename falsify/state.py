@@ -39,6 +39,30 @@ def solve_linear(lhs, rhs, key, s: dict[str, Any], exact: bool):
     return (r0 - l0) / slope
 
 
+def quadratic_points(diff, key, s: dict[str, Any], edge_first: bool) -> list[float]:
+    """Where `diff`, quadratic in the open value `key` (floats only), is extreme (its vertex)
+    or zero (its real roots): the places a quadratic atom can hold, edges first if asked.
+    [] when diff is not quadratic in key (checked at a fourth point)."""
+    old = get(s, key)
+    try:
+        values = []
+        for x in (-1.0, 0.0, 1.0, 2.0):
+            put(s, key, x)
+            values.append(float(diff(s)))
+    except (NeedValue, Blocked, TypeError, ArithmeticError):
+        return []
+    finally:
+        remove(s, key) if old is None else put(s, key, old)
+    m, c, p, q = values
+    a, b = (m + p) / 2 - c, (p - m) / 2
+    if a == 0 or abs(a * 4 + b * 2 + c - q) > 1e-9 * (1 + abs(q)):
+        return []
+    vertex = [-b / (2 * a)]
+    disc = b * b - 4 * a * c
+    roots = sorted({(-b - disc ** 0.5) / (2 * a), (-b + disc ** 0.5) / (2 * a)}) if disc >= 0 else []
+    return roots + vertex if edge_first else vertex + roots
+
+
 def put(s: dict[str, Any], key, value: Any) -> None:
     if isinstance(key, str):
         s[key] = value

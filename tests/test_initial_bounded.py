@@ -71,3 +71,26 @@ def test_a_havoc_followed_by_a_range_test_is_drawn_inside_the_range():
         assert 0 <= k_value < 12  # the test held: the interpreter checked it, and so do we
         seen.add(k_value)
     assert blocked == 0 and seen == set(range(12))  # [-2, 8] would miss 9, 10 and 11
+
+
+def test_a_quadratic_assumption_is_met_at_its_vertex_or_roots():
+    """rcm.barrier_clearance's `gap*(23/1000 - gap) >= 529/4000000*Y` holds only for gap in a
+    window of width ~0.002 around 0.0115 (Y near 1): a linear repair cannot find it, so 4 in 5
+    drawn states were rejected. The quadratic's vertex or roots meet it; every kept state is
+    checked here in exact rationals (to rounding: its edge is met in floats), independently of
+    the interpreter."""
+    from fractions import Fraction
+
+    interp = Interpreter(library.get("rcm.barrier_clearance"))
+    kept = 0
+    for seed in range(100):
+        try:
+            s = interp.run(RandomChooser(seed)).checkpoints[0].state
+        except Rejected:
+            continue
+        kept += 1
+        gap, Y = Fraction(s["gap"]), Fraction(s["Y"])
+        # a root (or the vertex at Y = 1) is the bound's edge: met in floats, here up to rounding
+        assert 0 < Y <= 1
+        assert gap * (Fraction(23, 1000) - gap) - Fraction(529, 4000000) * Y >= -Fraction(1, 10**12)
+    assert kept >= 20  # 0 of 100 before (the repairs of 0 < Y <= 1 with large slacks reject the rest)
