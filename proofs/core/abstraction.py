@@ -161,7 +161,7 @@ def _syms(n: Node) -> dict[str, Node]:
     def walk(x: Node) -> None:
         if x.op in ("var", "select"):
             if x.sort.is_numeric:
-                out.setdefault(str(x), x)
+                out.setdefault(_text(x), x)
             return
         for a in x.args:
             walk(a)
@@ -170,12 +170,17 @@ def _syms(n: Node) -> dict[str, Node]:
     return out
 
 
+def _text(atom: Node) -> str:
+    """An atom's text: a symbol's is its name (printing it gives the same), a read's is printed."""
+    return atom.payload if atom.op == "var" else str(atom)
+
+
 class _Polys:
     """One polynomial ring over QQ per obligation, lex order with the symbols the
     abbreviations eliminate first, so division rewrites atoms towards the abbreviations."""
 
     def __init__(self, formula: Node, inst: list[Instance]) -> None:
-        abbrevs = {str(i.symbol): i.symbol for i in inst}
+        abbrevs = {_text(i.symbol): i.symbol for i in inst}
         defined: dict[str, Node] = {}
         for i in inst:
             defined.update(_syms(i.definition))
@@ -194,7 +199,7 @@ class _Polys:
         if op == "const":
             return self.ring(QQ(n.payload.numerator, n.payload.denominator))
         if op in ("var", "select"):
-            k = self.index.get(str(n))
+            k = self.index.get(_text(n))
             if k is None or not n.sort.is_numeric:
                 raise _NotPolynomial(str(n))
             return self.gens[k]
@@ -234,10 +239,14 @@ class _Polys:
 
 
 def _binds_an_abbreviated_symbol(n: Node, inst: list[Instance]) -> bool:
-    """A quantifier over a symbol a definition mentions: the projection would move it out
-    of its scope. (Quantifiers over other symbols are rewritten inside, atom by atom.)"""
-    if n.op in ("forall", "exists"):
-        bound = {v.payload for v in n.payload}
-        if any(bound & set(free_vars(i.definition)) or i.symbol.payload in bound for i in inst):
-            return True
-    return any(_binds_an_abbreviated_symbol(a, inst) for a in n.args)
+    """A quantifier over a symbol a definition mentions, or over an abbreviation's symbol:
+    the projection would move it out of its scope. (Quantifiers over other symbols are
+    rewritten inside, atom by atom.)"""
+    watched = {name for i in inst for name in free_vars(i.definition)} | {i.symbol.payload for i in inst}
+    return _binds(n, watched)
+
+
+def _binds(n: Node, watched: set[str]) -> bool:
+    if n.op in ("forall", "exists") and any(v.payload in watched for v in n.payload):
+        return True
+    return any(_binds(a, watched) for a in n.args)

@@ -11,102 +11,10 @@ try:
 except ImportError as exc:  # pragma: no cover - exercised by the CLI's missing-solver test
     raise ImportError("z3 is not installed: pip install z3-solver") from exc
 
-from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Sort
+from certiloop.models.lang.terms import BOOL, REAL, Node
 from certiloop.proofs.core.interval import Interval
 from certiloop.proofs.core.simplify import simplify
-
-
-class Z3Translator:
-    """Translates into its own z3 context: every check starts from a clean slate, so the
-    same obligation gets the same search (z3's global context carries state between checks,
-    which made results depend on what was checked before)."""
-
-    def __init__(self) -> None:
-        self.ctx = z3.Context()
-        self.sorts: dict[str, z3.SortRef] = {}
-        self.symbols: dict[str, z3.ExprRef] = {}
-
-    def sort(self, s: Sort) -> z3.SortRef:
-        if s == REAL:
-            return z3.RealSort(self.ctx)
-        if s == INT:
-            return z3.IntSort(self.ctx)
-        if s == BOOL:
-            return z3.BoolSort(self.ctx)
-        if s.is_array:
-            return z3.ArraySort(*(self.sort(d) for d in s.domain), self.sort(s.range))
-        if s.name not in self.sorts:
-            self.sorts[s.name] = z3.DeclareSort(s.name, self.ctx)
-        return self.sorts[s.name]
-
-    def symbol(self, n: Node, bound: dict[str, z3.ExprRef]) -> z3.ExprRef:
-        if n.payload in bound:
-            return bound[n.payload]
-        sym = self.symbols.get(n.payload)
-        if sym is None:
-            sym = z3.Const(n.payload, self.sort(n.sort))
-            self.symbols[n.payload] = sym
-        return sym
-
-    def __call__(self, n: Node, bound: dict[str, z3.ExprRef] | None = None) -> z3.ExprRef:
-        return self.tr(n, bound or {})
-
-    def tr(self, n: Node, bound: dict[str, z3.ExprRef]) -> z3.ExprRef:
-        op, args = n.op, n.args
-        if op == "const":
-            f: Fraction = n.payload
-            if n.sort == INT:
-                return z3.IntVal(f.numerator, self.ctx)
-            return z3.RealVal(f"{f.numerator}/{f.denominator}", self.ctx)
-        if op == "var":
-            return self.symbol(n, bound)
-        if op == "true":
-            return z3.BoolVal(True, self.ctx)
-        if op == "false":
-            return z3.BoolVal(False, self.ctx)
-        sub = [self.tr(a, bound) for a in args] if op not in ("forall", "exists") else []
-        if op == "+":
-            return z3.Sum(*sub) if len(sub) > 1 else sub[0]
-        if op == "*":
-            return z3.Product(*sub) if len(sub) > 1 else sub[0]
-        if op == "neg":
-            return -sub[0]
-        if op == "/":
-            a, b = sub
-            return z3.ToReal(a) / z3.ToReal(b) if z3.is_int(a) and z3.is_int(b) else a / b
-        if op == "^":
-            return z3.Product(*([sub[0]] * n.payload)) if n.payload > 1 else (
-                sub[0] if n.payload == 1 else z3.IntVal(1, self.ctx))
-        if op == "select":
-            return z3.Select(sub[0], *sub[1:])
-        if op == "store":
-            return z3.Store(sub[0], *sub[1:])
-        if op == "cmp":
-            a, b = sub
-            return {
-                "<": lambda: a < b, "<=": lambda: a <= b, ">": lambda: a > b,
-                ">=": lambda: a >= b, "==": lambda: a == b, "!=": lambda: a != b,
-            }[n.payload]()
-        if op == "and":
-            return z3.And(*sub)
-        if op == "or":
-            return z3.Or(*sub)
-        if op == "not":
-            return z3.Not(sub[0])
-        if op == "implies":
-            return z3.Implies(*sub)
-        if op == "iff":
-            return sub[0] == sub[1]
-        if op in ("forall", "exists"):
-            inner = dict(bound)
-            zvars = []
-            for v in n.payload:
-                zv = z3.Const(v.payload, self.sort(v.sort))
-                inner[v.payload] = zv
-                zvars.append(zv)
-            body = self.tr(args[0], inner)
-            return z3.ForAll(zvars, body) if op == "forall" else z3.Exists(zvars, body)
-        raise TypeError(f"cannot send `{n}` to z3 (modalities must be expanded first)")
+from certiloop.proofs.core.z3terms import Z3Translator
 
 
 def _quantifier_free(n: Node) -> bool:
