@@ -530,7 +530,10 @@ def substitute(n: Node, env: dict[str, Node]) -> Node:
 
 
 def rebuild(n: Node, args: tuple[Node, ...]) -> Node:
-    """Same node with new children, re-running the smart constructors' simplifications."""
+    """Same node with new children, re-running the smart constructors' simplifications.
+    Unchanged children give back the node itself: its cached key is reused, not rebuilt."""
+    if len(args) == len(n.args) and all(a is b for a, b in zip(args, n.args)):
+        return n
     op = n.op
     if op == "+":
         return add(*args)
