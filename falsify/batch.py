@@ -244,7 +244,8 @@ class BatchProgram:
         self.guarantee = self.vc(theorem.guarantee)
         self.parts = [(self._part_margin(g), g) for g in conjuncts(theorem.guarantee)]
         self.flows: dict[int, _Flow] = {}
-        self._leaves: dict[tuple, list[Leaf]] = {}
+        self._leaves: dict[int, list[Leaf]] = {}
+        self._fns: dict[int, Any] = {}
         self._touched: dict[int, list[str]] = {}
         self._prepare(theorem.program)
         self._prepare_formula(theorem.assumptions)
@@ -294,10 +295,17 @@ class BatchProgram:
 
     def _order(self, n: Node, bind: Bind | None = None) -> list[Leaf]:
         """The leaves n reads in order, without the variables `bind` binds (not values)."""
-        got = self._leaves.get(n.key)
+        got = self._leaves.get(id(n))  # by identity: hashing a big node's key costs more than its use
         if got is None:
-            got = self._leaves[n.key] = leaves(n)
+            got = self._leaves[id(n)] = leaves(n)
         return [leaf for leaf in got if leaf[0] not in bind] if bind else got
+
+    def _fn(self, n: Node):
+        """n's closure, cached by identity (the theorem keeps its nodes alive)."""
+        got = self._fns.get(id(n))
+        if got is None:
+            got = self._fns[id(n)] = self.vc(n)
+        return got
 
     # ------------------------------------------------------------------ a batch
     def simulate(self, rng: np.random.Generator, n: int, elements: int = 0) -> Batch:
@@ -308,6 +316,7 @@ class BatchProgram:
         self.events: list[tuple[str, np.ndarray, np.ndarray]] = []
         self.dropped = np.zeros(n, bool)  # a value went non-finite or RK4 lost it: abandoned
         self.flagged = np.zeros(n, bool)  # a finite choice accepted before its test was decided
+        self.failed = np.zeros(n, bool)  # no value of a finite choice made its test true
         with np.errstate(all="ignore"):  # 1/0 and overflow: such runs are dropped
             S, accepted = self._initial()
             batch = Batch(n, self.given, {k: S.vals[k].copy() for k in self.given}, accepted,
@@ -333,7 +342,7 @@ class BatchProgram:
         return {**S.vals, **bind} if bind else S.vals
 
     def _truth(self, f: Node, S: State, bind: Bind | None = None) -> np.ndarray:
-        got = np.asarray(self.vc(f)(self._env(S, bind or {})), bool)
+        got = np.asarray(self._fn(f)(self._env(S, bind or {})), bool)
         return got if got.shape == (S.n,) else np.broadcast_to(got, (S.n,))
 
     def _known(self, f: Node, S: State, bind: Bind | None = None) -> np.ndarray:
@@ -419,7 +428,7 @@ class BatchProgram:
         slack = np.where(edge | (op == "=="), 0.0, drawn)
         target = {">=": slack, ">": slack, "<=": -slack, "<": -slack, "==": 0.0 * slack,
                   "!=": 1.0 + 0.0 * slack}[op]
-        lhs, rhs = self.vc(atom.args[0]), self.vc(atom.args[1])
+        lhs, rhs = self._fn(atom.args[0]), self._fn(atom.args[1])
         env = self._env(S, bind)
         for leaf in sorted(dict.fromkeys(self._order(atom, bind)), key=lambda v: counts[_where(v, bind)]):
             if not self._movable(leaf, bind) or not broken.any():
@@ -452,7 +461,7 @@ class BatchProgram:
         """Meet `h(x) = c` for h homogeneous of degree d by scaling every x by (c/h)^(1/d)
         (initial._scale, vectorised): unit normals."""
         names = [v for v in dict.fromkeys(self._order(atom, bind)) if self._movable(v, bind)]
-        lhs, rhs = self.vc(atom.args[0]), self.vc(atom.args[1])
+        lhs, rhs = self._fn(atom.args[0]), self._fn(atom.args[1])
         env = self._env(S, bind)
         want = np.broadcast_to(rhs(env), (self.n,))
         have = np.broadcast_to(lhs(env), (self.n,))
@@ -476,8 +485,9 @@ class BatchProgram:
         accepted a finite choice before the test was decided and then fails it is dropped:
         the interpreter would go back and try the choice's other values."""
         self.flagged = np.zeros(self.n, bool)
+        self.failed = np.zeros(self.n, bool)
         self._resolve(cond, S, rows, cond, {}, (cond, {}), True)
-        holds = rows & self._truth(cond, S)
+        holds = rows & self._truth(cond, S) & ~self.failed
         self.dropped |= rows & self.flagged & ~holds
         return holds
 
@@ -488,6 +498,8 @@ class BatchProgram:
         pins down is solved for, any other real is drawn (and logged), a Boolean or an element
         is tried value by value. `unit` is the part of `cond` whose falsity makes `cond` false
         (a conjunct, a ∀'s body at one element): a finite choice must make it true."""
+        if cond is not None:  # runs whose test a finite choice already failed read nothing more
+            rows = rows & ~self.failed
         if not rows.any():
             return
         bind = bind or {}
@@ -545,7 +557,7 @@ class BatchProgram:
                     rows &= ~S.is_open(other, bind)
             if not rows.any():
                 continue
-            lhs, rhs = self.vc(atom.args[0]), self.vc(atom.args[1])
+            lhs, rhs = self._fn(atom.args[0]), self._fn(atom.args[1])
             env = self._env(S, bind)
             x = _solve(lhs, rhs, partial(S.with_value, env, leaf, bind), self.n)
             solved = rows & np.isfinite(x)
@@ -575,6 +587,7 @@ class BatchProgram:
             if not pending.any():
                 return
         S.put(leaf, bind, pending, np.nan, open_=True)  # none did: the test fails, the value stays open
+        self.failed |= pending
 
     def _accepts(self, S: State, cond: Node, unit: tuple[Node, Bind], rows: np.ndarray) -> np.ndarray:
         """Per run: the candidate just written makes the test true — decided where the test
@@ -619,7 +632,7 @@ class BatchProgram:
 
     def _assign(self, p: Assign, S: State, rows: np.ndarray) -> np.ndarray:
         self._resolve(p.value, S, rows, None)
-        x = np.broadcast_to(np.asarray(self.vc(p.value)(S.vals), float), (self.n,))
+        x = np.broadcast_to(np.asarray(self._fn(p.value)(S.vals), float), (self.n,))
         self.dropped |= rows & ~np.isfinite(x)
         ok = rows & ~self.dropped
         S.put(self._target(p.target, S, ok), {}, ok, x)

@@ -92,7 +92,8 @@ class State:
     def put(self, leaf: Leaf, bind: Bind, rows: np.ndarray, values, open_: bool = False) -> None:
         """Write (or, with open_, reopen) the leaf on `rows`."""
         name, index = leaf
-        values = np.broadcast_to(np.nan if open_ else values, rows.shape)
+        if open_ or np.shape(values) != rows.shape:
+            values = np.broadcast_to(np.nan if open_ else values, rows.shape)
         if index is None:
             self.vals[name][rows] = values[rows]
             self.open[name][rows] = open_

@@ -213,7 +213,7 @@ def gather(table: np.ndarray, at) -> np.ndarray:
     """table[..., at] with one element per run (floats; an open element, nan, reads some
     column: such runs do not use the value)."""
     cols = np.asarray(at).astype(np.intp)  # nan -> some integer, clipped below
-    np.clip(cols, 0, table.shape[-1] - 1, out=cols)
+    np.minimum(np.maximum(cols, 0, out=cols), table.shape[-1] - 1, out=cols)  # np.clip: 4x slower
     if table.ndim == 2 and cols.shape == table.shape[:1]:  # (runs, elements): the hot case
         return table[_rows(cols.shape[0]), cols]
     cols = np.broadcast_to(cols, table.shape[:-1])
