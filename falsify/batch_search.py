@@ -8,7 +8,7 @@ arithmetic where the flows have closed forms, else with validated enclosures of 
 (`validated.py`), else in floating point (so named) with a violation deeper than the
 search's tolerance — the check every reported counterexample passes. A
 candidate that does not replay is dropped. A model with families runs each round's runs
-split over the family sizes of the search's range, one batch per size.
+split over the family sizes of the search's range, one batch per size (`_split`).
 """
 
 from __future__ import annotations
@@ -71,8 +71,17 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
                 if check:
                     return BatchOutcome(drawn + r + 1, started, run, check, initial, script)
             drawn += count
-        size = min(4 * size, BATCH_SIZE)
+        size = _grow(size, len(sizes))
     return BatchOutcome(drawn, started)
+
+
+def _grow(size: int, sizes: int) -> int:
+    """The next round's runs: 4x, up to BATCH_SIZE per batch. Split over several family sizes,
+    a round pays each batch's per-statement cost once per size: it grows 16x (sbs.ctrl2's
+    4,096 runs in 16 batches rather than 24: 4.0 -> 2.7 s)."""
+    if sizes == 1:
+        return min(4 * size, BATCH_SIZE)
+    return min(16 * size, BATCH_SIZE * sizes)
 
 
 def _split(runs: int, sizes: list[int]) -> list[tuple[int, int]]:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from certiloop.falsify.batch import BatchProgram, compiled
-from certiloop.falsify.batch_search import _split, batch_search
+from certiloop.falsify.batch_search import BATCH_SIZE, _grow, _split, batch_search
 from certiloop.falsify.choosers import Diverged, RandomChooser, Scripted
 from certiloop.falsify.evaluate import Blocked, Compiler, Table
 from certiloop.falsify.interpreter import Interpreter
@@ -163,6 +163,8 @@ def test_one_batch_per_family_size():
     assert _split(256, list(range(1, 9))) == [(m, 32) for m in range(1, 9)]
     assert _split(10, [1, 2, 3]) == [(1, 4), (2, 3), (3, 3)]
     assert _split(2, [1, 2, 3]) == [(1, 1), (2, 1)]
+    assert _grow(256, 1) == 1024 and _grow(1024, 1) == _grow(4096, 1) == BATCH_SIZE
+    assert _grow(256, 8) == 4096 and _grow(4096, 8) == 8 * BATCH_SIZE
     program = compiled(library.get("sbs.ctrl2"), 3)
     assert program.sizes((1, 8)) == list(range(1, 9)) and program.sizes((0, 2)) == [1, 2]
     assert compiled(library.get("textbook.train"), 3).sizes((1, 8)) == [0]
