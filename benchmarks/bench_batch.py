@@ -7,8 +7,10 @@ the first confirmed counterexample, and `certiloop falsify` on every refuted mod
   example database, 200 examples; violations are not confirmed, so a refuted model's
   search runs them all: a rate of runs, not a time to a hit) against the new batch
   simulator (runs per second over two batches of 4,096, compiled once beforehand; the
-  one-off compile time is listed apart). A model the batch cannot compile falls back to
-  hypothesis in the new install too; its new figure is then the hypothesis rate.
+  one-off compile time is listed apart; a model with families runs each 4,096 as one batch
+  per family size 1..8, as the search does). A model the batch cannot compile falls back to
+  hypothesis in the new install too; its new figure is then the hypothesis rate. With
+  --hypothesis, the new install's own per-run search is measured too (`ratio_vs_hyp`).
 * time to first counterexample: `falsify` (shrinking off) of each refuted model for
   seeds 0..N-1 in each install: seeds that found one, median seconds.
 * CLI: `certiloop falsify MODEL --database none` (the CLI's budget, shrinking on) once per
@@ -44,28 +46,43 @@ except Exception:  # a model this install does not have
     print(json.dumps({"missing": True}))
     raise SystemExit(0)
 out = {}
+
+
+def hypothesis_rate():
+    """(runs, seconds) of this install's per-run hypothesis search."""
+    import certiloop.falsify.search as search
+    # count runs, not the time to a hit: no violation is confirmed, so the search
+    # draws all its examples (the batch's rate, too, leaves replays out)
+    search.confirm = lambda *a, **k: ""
+    search._deep = lambda run: False
+    opts = dict(max_examples=200, seed=0, database=None, shrink=False)
+    if "batch_runs" in Options.__dataclass_fields__:
+        opts["batch_runs"] = 0
+    t = time.perf_counter(); r = falsify(th, Options(**opts))
+    return r.examples, time.perf_counter() - t
+
+
 if mode == "rate":
     try:
         import numpy as np
         from certiloop.falsify.batch import compiled
         t = time.perf_counter(); program = compiled(th, 3); out["compile_s"] = time.perf_counter() - t
+        # a model with families: each 4,096 runs split over the search's sizes (1..8), a batch per size
+        sizes = program.sizes((1, 8)) if hasattr(program, "sizes") else [0]
         rng = np.random.default_rng(0)
         t = time.perf_counter(); runs = 0; started = 0
         for _ in range(2):
-            b = program.simulate(rng, 4096); runs += 4096; started += int(b.completed.sum())
+            for m in sizes:
+                count = 4096 // len(sizes)
+                b = program.simulate(rng, count, m) if m else program.simulate(rng, count)
+                runs += count; started += int(b.completed.sum())
         dt = time.perf_counter() - t
         out.update(batch=True, runs=runs, completed=started, seconds=dt)
+        if "--with-hypothesis" in sys.argv:  # this install's per-run search on the same model
+            out["hyp_runs"], out["hyp_seconds"] = hypothesis_rate()
     except Exception as exc:  # the old install, or a model outside the batch fragment
-        import certiloop.falsify.search as search
-        # count runs, not the time to a hit: no violation is confirmed, so the search
-        # draws all its examples (the batch's rate, too, leaves replays out)
-        search.confirm = lambda *a, **k: ""
-        search._deep = lambda run: False
-        opts = dict(max_examples=200, seed=0, database=None, shrink=False)
-        if "batch_runs" in Options.__dataclass_fields__:
-            opts["batch_runs"] = 0
-        t = time.perf_counter(); r = falsify(th, Options(**opts)); dt = time.perf_counter() - t
-        out.update(batch=False, runs=r.examples, seconds=dt, why=type(exc).__name__)
+        runs, dt = hypothesis_rate()
+        out.update(batch=False, runs=runs, seconds=dt, why=type(exc).__name__)
 elif mode == "first":
     rows = []
     for seed in range(seeds):
@@ -79,12 +96,12 @@ print(json.dumps(out))
 '''
 
 
-def _worker(python: str, mode: str, name: str, seeds: int = 1) -> dict:
+def _worker(python: str, mode: str, name: str, seeds: int = 1, *extra: str) -> dict:
     with tempfile.TemporaryDirectory() as cwd:
         script = Path(cwd) / "worker.py"
         script.write_text(WORKER)
-        got = subprocess.run([python, str(script), mode, name, str(seeds)], cwd=cwd, capture_output=True,
-                             text=True)
+        got = subprocess.run([python, str(script), mode, name, str(seeds), *extra], cwd=cwd,
+                             capture_output=True, text=True)
     if got.returncode != 0:
         raise SystemExit(f"worker failed on {name}: {got.stderr.strip().splitlines()[-1:]}")
     return json.loads(got.stdout.strip().splitlines()[-1])
@@ -104,6 +121,8 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=5)
     ap.add_argument("--only", choices=["rate", "first", "cli", "ab"], nargs="*")
     ap.add_argument("--models", nargs="*")
+    ap.add_argument("--hypothesis", action="store_true",
+                    help="rate: also this install's per-run hypothesis search, in the same worker")
     args = ap.parse_args()
     old_cli = str(Path(args.old_python).with_name("certiloop"))
     new_cli = str(Path(args.new_python).with_name("certiloop"))
@@ -121,14 +140,20 @@ def main() -> None:
     if "rate" in todo:
         rows = []
         for name in rate_models:
-            old, new = _worker(args.old_python, "rate", name), _worker(args.new_python, "rate", name)
+            old = _worker(args.old_python, "rate", name)
+            extra = ["--with-hypothesis"] if args.hypothesis else []
+            new = _worker(args.new_python, "rate", name, 1, *extra)
             if old.get("missing") or new.get("missing"):
                 continue
             o, n = old["runs"] / old["seconds"], new["runs"] / new["seconds"]
-            rows.append({"model": name, "old_runs_s": round(o, 1), "new_runs_s": round(n, 1),
-                         "ratio": round(n / o, 1), "new_path": "batch" if new["batch"] else "hypothesis",
-                         "compile_s": round(new.get("compile_s", 0.0), 2),
-                         "completed": f"{new.get('completed', new['runs'])}/{new['runs']}"})
+            row = {"model": name, "old_runs_s": round(o, 1), "new_runs_s": round(n, 1),
+                   "ratio": round(n / o, 1), "new_path": "batch" if new["batch"] else "hypothesis",
+                   "compile_s": round(new.get("compile_s", 0.0), 2),
+                   "completed": f"{new.get('completed', new['runs'])}/{new['runs']}"}
+            if args.hypothesis:  # the batch against this install's own per-run search
+                h = new["hyp_runs"] / new["hyp_seconds"] if "hyp_runs" in new else n
+                row.update(new_hyp_runs_s=round(h, 1), ratio_vs_hyp=round(n / h, 1))
+            rows.append(row)
         record("batch_rate", rows)
     if "first" in todo:
         rows = []

@@ -10,22 +10,39 @@ is worst, the number of control steps — and logs every decision, so that any r
 batch can be replayed by the interpreter from a script (`script(r)`). A violating run of a
 batch is only a candidate: the search reports it after that replay (`batch_search`).
 
-Only the scalar real fragment compiles (no families, arrays, integers, Booleans or
-quantifiers): anything else raises `Unsupported` and the model keeps the per-run search.
-Runs that hit a non-finite value (1/0, overflow) are dropped, never reported.
+Compiled: real scalars, families of reals or Booleans over one index sort (the family's
+size fixed per batch: runs of another size go in another batch), symbols of that sort
+(`i := *; ?¬done(i)`: an element per run, tried in the interpreter's order), `foreach`
+loops, and ∀/∃ over the index sort in tests, assumptions and the guarantee. Anything else
+(integers, arrays, Boolean symbols, other quantifiers) raises `Unsupported` and the model
+keeps the per-run search. Runs that hit a non-finite value (1/0, overflow) are dropped,
+never reported; so are runs where the interpreter would backtrack over a finite choice (a
+Boolean or an element accepted, then the test fails), whose decisions the batch does not
+log.
 """
 
 from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Any
 
 import numpy as np
 
+from certiloop.falsify.batch_open import OpenValues, solve_affine
+from certiloop.falsify.batch_state import Bind, State
 from certiloop.falsify.choosers import REAL_RANGE
-from certiloop.falsify.interpreter import HORIZON, LOOP_BOUND, OPEN_LOOP_ITERATIONS, _outer_loop
-from certiloop.falsify.vectorise import Unsupported, VCompiler, conjuncts, read_order
+from certiloop.falsify.evaluate import Table
+from certiloop.falsify.interpreter import HORIZON, LOOP_BOUND, OPEN_LOOP_ITERATIONS, _outer_loop, index_sorts
+from certiloop.falsify.vectorise import (
+    Leaf,
+    Unsupported,
+    VCompiler,
+    check_family,
+    conjuncts,
+    is_index_sort,
+)
 from certiloop.models.lang.programs import (
     ODE,
     Assign,
@@ -37,7 +54,7 @@ from certiloop.models.lang.programs import (
     Test,
     program_symbols,
 )
-from certiloop.models.lang.terms import REAL, Node, free_vars
+from certiloop.models.lang.terms import BOOL, REAL, Node, free_vars
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.wp import flow_solution
 
@@ -49,35 +66,6 @@ BISECTIONS = 30  # to 1e-9 of a grid cell, from inside; the result is then moved
 RK4_TOLERANCE = 1e-6  # step doubling: a flow without closed form is followed while RK4 agrees
 ESCAPE = 1e9  # as flows.ESCAPE
 REPAIR_PASSES = 3  # as initial.REPAIR_PASSES
-
-
-@dataclass
-class State:
-    """Every scalar symbol as an array over the batch; `open` marks values not yet chosen."""
-
-    vals: dict[str, np.ndarray]
-    open: dict[str, np.ndarray]
-    time: np.ndarray
-
-    def copy(self) -> "State":
-        return State({k: v.copy() for k, v in self.vals.items()},
-                     {k: v.copy() for k, v in self.open.items()}, self.time.copy())
-
-    def merge(self, other: "State", rows: np.ndarray) -> None:
-        """Take `other`'s values on `rows` (the runs whose attempt succeeded)."""
-        for k, v in other.vals.items():
-            self.vals[k][rows] = v[rows]
-            self.open[k][rows] = other.open[k][rows]
-        self.time[rows] = other.time[rows]
-
-    def take(self, at: np.ndarray) -> "State":
-        """The runs `at` as a smaller batch."""
-        return State({k: v[at] for k, v in self.vals.items()}, {k: v[at] for k, v in self.open.items()},
-                     self.time[at])
-
-    def set(self, name: str, rows: np.ndarray, values) -> None:
-        self.vals[name][rows] = np.broadcast_to(values, rows.shape)[rows]
-        self.open[name][rows] = False
 
 
 @dataclass
@@ -93,9 +81,24 @@ class Batch:
     events: list[tuple[str, np.ndarray, np.ndarray]] = field(default_factory=list)
     final: dict[str, np.ndarray] = field(default_factory=dict)  # each run's last state (nan: open)
     completed: np.ndarray | None = None  # ran to its end or to a violation (did not block)
+    families: dict[str, bool] = field(default_factory=dict)  # every family: Boolean-valued?
+    sorts: list[str] = field(default_factory=list)  # the index sort(s), of size `elements`
+    elements: int = 0
 
-    def initial_state(self, r: int) -> dict[str, float]:
-        return {name: float(self.initial[name][r]) for name in self.symbols}
+    def initial_state(self, r: int) -> dict[str, Any]:
+        """Run r's initial state as the interpreter keeps one: families as tables (those the
+        assumptions do not mention empty, i.e. open) and the index sort's universe."""
+        out: dict[str, Any] = {f"#universe:{sort}": range(self.elements) for sort in self.sorts}
+        for name in self.families:
+            out[name] = Table()
+        for name in self.symbols:
+            v = self.initial[name][r]
+            if name in self.families:
+                cast = bool if self.families[name] else float
+                out[name] = Table({(k,): cast(x) for k, x in enumerate(v)})
+            else:
+                out[name] = float(v)
+        return out
 
     def script(self, r: int) -> list[tuple[str, Any]]:
         """Run r's decisions in the order the interpreter asks for them."""
@@ -223,36 +226,54 @@ class _Flow:
         return start + (lo - start) * (1 - 2e-9)
 
 
-class BatchProgram:
+class BatchProgram(OpenValues):
     """A theorem compiled for batch simulation (raises Unsupported)."""
 
     def __init__(self, theorem: Theorem, max_steps: int = 3, horizon: float = HORIZON) -> None:
         self.theorem, self.max_steps, self.horizon = theorem, max_steps, horizon
         self.symbols = {**free_vars(theorem.assumptions), **program_symbols(theorem.program),
                         **free_vars(theorem.guarantee)}
-        for name, sym in self.symbols.items():
-            if sym.sort != REAL:
-                raise Unsupported(f"`{name}` is not a real scalar")
+        self.sorts = [sort.name for sort in index_sorts(theorem)]
+        if len(self.sorts) > 1:
+            raise Unsupported(f"more than one index sort ({', '.join(self.sorts)})")
+        self.families = _families(self.symbols)
         self.vc = VCompiler()
         self.top = _outer_loop(theorem.program)
         self.given = list(free_vars(theorem.assumptions))
         self.assumptions = self.vc(theorem.assumptions)
         self.guarantee = self.vc(theorem.guarantee)
-        self.parts = [(self.vc.margin(g), read_order(g)) for g in conjuncts(theorem.guarantee)]
+        self.parts = [(self._part_margin(g), g) for g in conjuncts(theorem.guarantee)]
         self.flows: dict[int, _Flow] = {}
-        self._orders: dict[tuple, list[str]] = {}
+        self._leaves: dict[int, list[Leaf]] = {}
+        self._fns: dict[int, Any] = {}
+        self._touched: dict[int, list[str]] = {}
         self._prepare(theorem.program)
         self._prepare_formula(theorem.assumptions)
 
+    def _part_margin(self, g: Node):
+        """A ∀ over the index sort is one part per element in the interpreter: the smallest."""
+        if g.op == "forall" and len(g.payload) == 1 and is_index_sort(g.payload[0].sort):
+            self.vc(g)  # compiles or raises Unsupported
+            return self.vc.element_margin(g)
+        return self.vc.margin(g)
+
+    def sizes(self, families: tuple[int, int]) -> list[int]:
+        """The family sizes to run, one batch each: the search's range (at least one element,
+        so that a cell is always there to read); [0] for a model without families."""
+        if not self.sorts:
+            return [0]
+        lo, hi = families
+        return list(range(max(lo, 1), max(hi, 1) + 1))
+
     # ------------------------------------------------------------------ compile
     def _prepare(self, p: Program) -> None:
-        if isinstance(p, Assign):
-            if p.target.op != "var":
+        if isinstance(p, (Assign, Havoc)):
+            if p.target.op not in ("var", "select"):
                 raise Unsupported(f"assignment to `{p.target}`")
-            self.vc(p.value)
-        elif isinstance(p, Havoc):
-            if p.target.op != "var":
-                raise Unsupported(f"nondeterministic assignment to `{p.target}`")
+            if p.target.op == "select":
+                self.vc(p.target)  # a family's cell at an index symbol, or Unsupported
+            if isinstance(p, Assign):
+                self.vc(p.value)
         elif isinstance(p, Test):
             self._prepare_formula(p.cond)
         elif isinstance(p, (Seq, Choice)):
@@ -261,6 +282,8 @@ class BatchProgram:
         elif isinstance(p, Loop):
             self._prepare(p.body)
         elif isinstance(p, ODE):
+            if any(v.payload in self.families for v in p.variables):
+                raise Unsupported(f"a flow of a family in {p!r}")
             self.flows[id(p)] = _Flow(p, self.vc)
             self._prepare_formula(p.domain)
         else:
@@ -270,21 +293,21 @@ class BatchProgram:
         self.vc(f)
         self.vc.margin(f)
 
-    def _order(self, n: Node) -> list[str]:
-        got = self._orders.get(n.key)
-        if got is None:
-            got = self._orders[n.key] = read_order(n)
-        return got
-
     # ------------------------------------------------------------------ a batch
-    def simulate(self, rng: np.random.Generator, n: int) -> Batch:
-        self.rng, self.n = rng, n
+    def simulate(self, rng: np.random.Generator, n: int, elements: int = 0) -> Batch:
+        """n runs whose index sort (if any) has `elements` elements."""
+        if self.sorts and elements < 1:
+            raise ValueError("a model with families needs a family size of at least 1")
+        self.rng, self.n, self.vc.size = rng, n, elements
         self.events: list[tuple[str, np.ndarray, np.ndarray]] = []
         self.dropped = np.zeros(n, bool)  # a value went non-finite or RK4 lost it: abandoned
+        self.flagged = np.zeros(n, bool)  # a finite choice accepted before its test was decided
+        self.failed = np.zeros(n, bool)  # no value of a finite choice made its test true
         with np.errstate(all="ignore"):  # 1/0 and overflow: such runs are dropped
             S, accepted = self._initial()
             batch = Batch(n, self.given, {k: S.vals[k].copy() for k in self.given}, accepted,
-                          np.zeros(n, bool), np.full(n, np.nan), self.events)
+                          np.zeros(n, bool), np.full(n, np.nan), self.events, families=self.families,
+                          sorts=self.sorts, elements=elements)
             self.out = batch
             p, top = self.theorem.program, self.top
             if top is None:
@@ -305,34 +328,63 @@ class BatchProgram:
     def _initial(self) -> tuple[State, np.ndarray]:
         """Drawn values repaired towards the assumptions (initial.py's method, per run);
         a run starts only if the assumptions hold for it."""
-        n, rng = self.n, self.rng
-        S = State({k: np.full(n, np.nan) for k in self.symbols}, {k: np.ones(n, bool) for k in self.symbols},
-                  np.zeros(n))
+        n, m = self.n, self.vc.size
+        shape = {k: (n, m) if k in self.families else (n,) for k in self.symbols}
+        S = State({k: np.full(shape[k], np.nan) for k in self.symbols},
+                  {k: np.ones(shape[k], bool) for k in self.symbols}, np.zeros(n))
         for name in self.given:
-            S.set(name, np.ones(n, bool), rng.uniform(-REAL_RANGE, REAL_RANGE, n))
-        instances = self._instances(self.theorem.assumptions, np.ones(n, bool))
-        counts = Counter(v for atom, _ in instances for v in self._order(atom))
+            S.vals[name][:] = self._draw(name, shape[name])
+            S.open[name][:] = False
+        instances = self._instances(self.theorem.assumptions, np.ones(n, bool), {})
+        counts = Counter(_where(leaf, bind) for atom, _, bind in instances
+                         for leaf in self._order(atom, bind))
         edged: set[int] = set()
         for _ in range(REPAIR_PASSES):
-            for at, (atom, rows) in enumerate(instances):
-                self._repair(atom, rows, S, counts, at, edged)
+            for at, (atom, rows, bind) in enumerate(instances):
+                self._repair(atom, rows, bind, S, counts, at, edged)
         accepted = np.asarray(np.broadcast_to(self.assumptions(S.vals), (n,)), bool).copy()
         for name in self.given:
-            accepted &= np.isfinite(S.vals[name])
+            v = S.vals[name]
+            accepted &= np.isfinite(v).all(axis=1) if v.ndim == 2 else np.isfinite(v)
         return S, accepted
 
-    def _instances(self, f: Node, rows: np.ndarray) -> list[tuple[Node, np.ndarray]]:
+    def _draw(self, name: str, shape: tuple[int, ...]) -> np.ndarray:
+        """A given value: a real in the models' scale, a Boolean, or an element."""
+        sort = self.symbols[name].sort
+        if self.families.get(name):
+            return self.rng.integers(0, 2, shape).astype(float)
+        if is_index_sort(sort):
+            return self.rng.integers(0, self.vc.size, shape).astype(float)
+        return self.rng.uniform(-REAL_RANGE, REAL_RANGE, shape)
+
+    def _instances(self, f: Node, rows: np.ndarray, bind: Bind) -> list[tuple[Node, np.ndarray, Bind]]:
+        """Atoms to make true: conjuncts, one disjunct, a ∀ over the index sort per element."""
         if f.op == "and":
-            return [i for a in f.args for i in self._instances(a, rows)]
+            return [i for a in f.args for i in self._instances(a, rows, bind)]
         if f.op == "or":
             pick = self.rng.integers(0, len(f.args), self.n)
-            return [i for k, a in enumerate(f.args) for i in self._instances(a, rows & (pick == k))]
-        return [(f, rows)]
+            return [i for k, a in enumerate(f.args) for i in self._instances(a, rows & (pick == k), bind)]
+        if f.op == "forall" and len(f.payload) == 1 and is_index_sort(f.payload[0].sort):
+            name = f.payload[0].payload
+            body = f.args[0]
+            return [i for k in range(self.vc.size) for i in self._instances(body, rows, {**bind, name: k})]
+        return [(f, rows, bind)]
 
-    def _repair(self, atom: Node, rows: np.ndarray, S: State, counts: Counter, at: int, edged: set) -> None:
+    def _movable(self, leaf: Leaf, bind: Bind) -> bool:
+        """A given real (a symbol, or a given family's cell at a bound element) a repair may move."""
+        name, index = leaf
+        if name not in self.given or self.families.get(name) or is_index_sort(self.symbols[name].sort):
+            return False
+        return index is None or index in bind
+
+    def _repair(self, atom: Node, rows: np.ndarray, bind: Bind, S: State, counts: Counter, at: int,
+                edged: set) -> None:
+        if atom.op == "implies":
+            self._repair_premise(atom, rows, bind, S)
+            return
         if atom.op != "cmp":
             return
-        holds = lambda: np.broadcast_to(self.vc(atom)(S.vals), (self.n,))  # noqa: E731
+        holds = lambda: self._truth(atom, S, bind)  # noqa: E731
         op = atom.payload
         edge = np.zeros(self.n, bool)
         if op in ("<=", ">=") and at not in edged:
@@ -347,94 +399,56 @@ class BatchProgram:
         slack = np.where(edge | (op == "=="), 0.0, drawn)
         target = {">=": slack, ">": slack, "<=": -slack, "<": -slack, "==": 0.0 * slack,
                   "!=": 1.0 + 0.0 * slack}[op]
-        lhs, rhs = self.vc(atom.args[0]), self.vc(atom.args[1])
-        for name in sorted(dict.fromkeys(self._order(atom)), key=lambda v: counts[v]):
-            if name not in self.given or not broken.any():
+        lhs, rhs = self._fn(atom.args[0]), self._fn(atom.args[1])
+        env = self._env(S, bind)
+        for leaf in sorted(dict.fromkeys(self._order(atom, bind)), key=lambda v: counts[_where(v, bind)]):
+            if not self._movable(leaf, bind) or not broken.any():
                 continue
-            x = _solve(lambda env: lhs(env) - rhs(env), lambda env: target, name, S.vals, self.n)
-            old = S.vals[name].copy()
+            x = solve_affine(lambda env: lhs(env) - rhs(env), lambda env: target,
+                       partial(S.with_value, env, leaf, bind), self.n)
+            old = S.get(leaf, bind)
             move = broken & np.isfinite(x)
-            S.vals[name][move] = x[move]
+            S.put(leaf, bind, move, x)
+            env = self._env(S, bind)
             fixed = move & holds()
-            S.vals[name][move & ~fixed] = old[move & ~fixed]
+            S.put(leaf, bind, move & ~fixed, old)
             broken &= ~fixed
         if op == "==" and broken.any():
-            self._scale(atom, broken, S, holds)
+            self._scale(atom, broken, bind, S, holds)
 
-    def _scale(self, atom: Node, rows: np.ndarray, S: State, holds) -> None:
+    def _repair_premise(self, atom: Node, rows: np.ndarray, bind: Bind, S: State) -> None:
+        """`b(j) -> φ` with b a given Boolean family (active boundaries): where φ fails, b(j)
+        is made false, as the interpreter's draw of b(j) would have to be."""
+        premise = atom.args[0]
+        if premise.op != "select" or not self.families.get(premise.args[0].payload) \
+                or premise.args[0].payload not in self.given:
+            return
+        leaf = self._order(premise)[-1]
+        if leaf[1] not in bind:
+            return
+        S.put(leaf, bind, rows & ~self._truth(atom, S, bind), 0.0)
+
+    def _scale(self, atom: Node, rows: np.ndarray, bind: Bind, S: State, holds) -> None:
         """Meet `h(x) = c` for h homogeneous of degree d by scaling every x by (c/h)^(1/d)
         (initial._scale, vectorised): unit normals."""
-        names = [v for v in dict.fromkeys(self._order(atom)) if v in self.given]
-        lhs, rhs = self.vc(atom.args[0]), self.vc(atom.args[1])
-        want = np.broadcast_to(rhs(S.vals), (self.n,))
-        have = np.broadcast_to(lhs(S.vals), (self.n,))
-        env = dict(S.vals)
+        names = [v for v in dict.fromkeys(self._order(atom, bind)) if self._movable(v, bind)]
+        lhs, rhs = self._fn(atom.args[0]), self._fn(atom.args[1])
+        env = self._env(S, bind)
+        want = np.broadcast_to(rhs(env), (self.n,))
+        have = np.broadcast_to(lhs(env), (self.n,))
+        old = {v: S.get(v, bind) for v in names}
         for v in names:
-            env[v] = S.vals[v] * 2
+            env = S.with_value(env, v, bind, old[v] * 2)
         doubled = np.broadcast_to(lhs(env), (self.n,))
         degree = np.log2(np.abs(doubled / have))
         ok = (rows & (have != 0) & (want / have > 0) & np.isfinite(degree) & (degree > 0)
               & (np.abs(degree - np.round(degree)) <= 1e-9))
         factor = (want / have) ** (1 / np.round(degree))
-        old = {v: S.vals[v].copy() for v in names}
         for v in names:
-            S.vals[v][ok] = old[v][ok] * factor[ok]
+            S.put(v, bind, ok, old[v] * factor)
         undo = ok & ~holds()
         for v in names:
-            S.vals[v][undo] = old[v][undo]
-
-    # ------------------------------------------------------------------ open values
-    def _resolve(self, f: Node, S: State, rows: np.ndarray, cond: Node | None) -> None:
-        """Give every open value f reads a value, in the interpreter's order: formulas
-        short-circuit left to right; a value an equation of `cond` pins down is solved
-        for, any other is drawn (and logged)."""
-        if not rows.any():
-            return
-        op = f.op
-        if op in ("and", "or"):
-            cur = rows.copy()
-            for a in f.args:
-                self._resolve(a, S, cur, cond)
-                t = self._truth(a, S)
-                cur &= t if op == "and" else ~t
-            return
-        if op == "implies":
-            self._resolve(f.args[0], S, rows, cond)
-            self._resolve(f.args[1], S, rows & self._truth(f.args[0], S), cond)
-            return
-        if op in ("not", "iff"):
-            for a in f.args:
-                self._resolve(a, S, rows, cond)
-            return
-        for name in self._order(f):
-            need = rows & S.open[name]
-            if need.any():
-                self._choose(name, S, need, cond)
-
-    def _choose(self, name: str, S: State, need: np.ndarray, cond: Node | None) -> None:
-        left = need.copy()
-        for atom in conjuncts(cond) if cond is not None else ():
-            if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
-                continue
-            others = [v for v in self._order(atom) if v != name]
-            rows = left.copy()
-            for v in others:
-                rows &= ~S.open[v]
-            if not rows.any():
-                continue
-            lhs, rhs = self.vc(atom.args[0]), self.vc(atom.args[1])
-            x = _solve(lhs, rhs, name, S.vals, self.n)
-            solved = rows & np.isfinite(x)
-            S.set(name, solved, x)
-            left &= ~solved
-            if not left.any():
-                return
-        x = self.rng.uniform(-REAL_RANGE, REAL_RANGE, self.n)
-        S.set(name, left, x)
-        self._log("real", left, x)
-
-    def _truth(self, f: Node, S: State) -> np.ndarray:
-        return np.asarray(np.broadcast_to(self.vc(f)(S.vals), (self.n,)), bool)
+            S.put(v, bind, undo, old[v])
 
     # ------------------------------------------------------------------ statements
     def _exec(self, p: Program, S: State, rows: np.ndarray) -> np.ndarray:
@@ -442,19 +456,12 @@ class BatchProgram:
         if not rows.any():
             return rows
         if isinstance(p, Assign):
-            self._resolve(p.value, S, rows, None)
-            x = np.broadcast_to(self.vc(p.value)(S.vals), (self.n,))
-            self.dropped |= rows & ~np.isfinite(x)
-            ok = rows & ~self.dropped
-            S.set(p.target.payload, ok, x)
-            return ok
+            return self._assign(p, S, rows)
         if isinstance(p, Havoc):
-            S.open[p.target.payload][rows] = True
-            S.vals[p.target.payload][rows] = np.nan
+            self._havoc(p.target, S, rows)
             return rows
         if isinstance(p, Test):
-            self._resolve(p.cond, S, rows, p.cond)
-            return rows & self._truth(p.cond, S)
+            return self._decide(p.cond, S, rows)
         if isinstance(p, Seq):
             cur = rows
             for k, q in enumerate(p.parts):
@@ -472,27 +479,80 @@ class BatchProgram:
             return self._ode(p, S, rows)
         raise Unsupported(f"statement {p!r}")
 
+    def _assign(self, p: Assign, S: State, rows: np.ndarray) -> np.ndarray:
+        self._resolve(p.value, S, rows, None)
+        x = np.broadcast_to(np.asarray(self._fn(p.value)(S.vals), float), (self.n,))
+        self.dropped |= rows & ~np.isfinite(x)
+        ok = rows & ~self.dropped
+        S.put(self._target(p.target, S, ok), {}, ok, x)
+        return ok
+
+    def _havoc(self, target: Node, S: State, rows: np.ndarray) -> None:
+        if target.op == "var" and target.payload in self.families:  # a whole family: every cell open
+            S.open[target.payload][rows] = True
+            S.vals[target.payload][rows] = np.nan
+            return
+        S.put(self._target(target, S, rows), {}, rows, np.nan, open_=True)
+
+    def _target(self, target: Node, S: State, rows: np.ndarray) -> Leaf:
+        """The leaf a statement writes; a cell's index, if open, is chosen first (interpreter.store)."""
+        if target.op == "var":
+            return (target.payload, None)
+        self._resolve(target.args[1], S, rows, None)
+        return self._order(target)[-1]
+
     def _attempt(self, p: Program, S: State, rows: np.ndarray) -> np.ndarray:
-        trial = S.copy()
+        names = self._touched.get(id(p))
+        if names is None:  # what p reads or writes: its open values may be chosen too
+            names = self._touched[id(p)] = [k for k in program_symbols(p) if k in S.vals]
+        trial = S.copy(names)
         ok = self._exec(p, trial, rows)
-        S.merge(trial, ok)
+        S.merge(trial, ok, names)
         return ok
 
     def _choice(self, p: Choice, S: State, rows: np.ndarray) -> np.ndarray:
+        """Each run tries the alternatives from its drawn first one on, cyclically, up to one
+        that does not block. Runs are independent, so they go in rounds: in round t every
+        run still pending tries its t-th alternative, grouped by alternative. Alternatives
+        whose guard is false on known values block at once, deciding nothing: skipped."""
         n = len(p.alternatives)
         first = np.zeros(self.n, int)
         if n > 1:
             first = self.rng.integers(0, n, self.n)
             self._log("integer", rows, first)
+        blocked = np.array([self._blocks_at_once(q, S, rows) for q in p.alternatives])  # (n, runs)
+        order = (first[None, :] + np.arange(n)[:, None]) % n  # (k, runs): the k-th alternative tried
+        eligible = ~np.take_along_axis(blocked, order, axis=0)
+        rank = np.cumsum(eligible, axis=0) - 1  # among the ones tried, which round
         pending, done = rows.copy(), np.zeros(self.n, bool)
-        for k in range(n):
+        for t in range(n):
+            now = eligible & (rank == t)
+            if not (pending & now.any(axis=0)).any():
+                break
             for a in range(n):
-                try_a = pending & ((first + k) % n == a)
+                try_a = pending & (now & (order == a)).any(axis=0)
                 if try_a.any():
                     ok = self._attempt(p.alternatives[a], S, try_a)
                     done |= ok
                     pending &= ~ok & ~self.dropped
         return done
+
+    def _blocks_at_once(self, p: Program, S: State, rows: np.ndarray) -> np.ndarray:
+        """Rows where p starts with a test that fails before it reads an open value."""
+        while isinstance(p, Seq):
+            p = p.parts[0]
+        if not isinstance(p, Test):
+            return np.zeros(self.n, bool)
+        parts = conjuncts(p.cond)
+        cur, out = rows.copy(), np.zeros(self.n, bool)
+        for c in parts:  # left to right, as far as every value read so far is known
+            known = self._known(c, S)
+            t = self._truth(c, S)
+            out |= cur & known & ~t
+            cur &= known & t
+            if not cur.any():
+                break
+        return out
 
     def _loop(self, p: Loop, S: State, rows: np.ndarray, exit_test: Node | None) -> np.ndarray:
         out, active = np.zeros(self.n, bool), rows.copy()
@@ -515,10 +575,7 @@ class BatchProgram:
         return out  # runs still looping after LOOP_BOUND iterations block
 
     def _quietly(self, f: Node, S: State) -> np.ndarray:
-        known = np.ones(self.n, bool)
-        for v in self._order(f):
-            known &= ~S.open[v]
-        return known & self._truth(f, S)
+        return self._known(f, S) & self._truth(f, S)
 
     def _outer(self, p: Loop, S: State, rows: np.ndarray) -> np.ndarray:
         alive = rows & ~self._checkpoint(S, rows)
@@ -545,10 +602,8 @@ class BatchProgram:
     def _watch(self, env: dict[str, Any], S: State, shape: tuple[int, ...]) -> np.ndarray:
         """The smallest margin of the guarantee's parts that read no open value."""
         worst = np.full(shape, np.inf)
-        for fn, names in self.parts:
-            known = np.ones(shape[0], bool)
-            for v in names:
-                known &= ~S.open[v]
+        for fn, part in self.parts:
+            known = self._known(part, S)
             if len(shape) == 2:
                 known = known[:, None]
             worst = np.where(known, np.minimum(worst, np.broadcast_to(fn(env), shape)), worst)
@@ -558,8 +613,7 @@ class BatchProgram:
         flow = self.flows[id(p)]
         for f in (*flow.rhs_nodes, *p.variables):
             self._resolve(f, S, rows, None)
-        self._resolve(p.domain, S, rows, p.domain)
-        ok = rows & self._truth(p.domain, S)
+        ok = self._decide(p.domain, S, rows)
         u = np.where(self.rng.random(self.n) < 0.5, 1.0, self.rng.random(self.n))
         if not ok.any():
             return ok
@@ -596,21 +650,24 @@ def _full(v, shape) -> np.ndarray:
     return v if np.ndim(v) else np.full(shape, float(v))
 
 
-def _solve(lhs, rhs, name: str, vals: dict[str, np.ndarray], n: int) -> np.ndarray:
-    """Per run, x with lhs = rhs where both sides are affine in `name` (state.solve_linear,
-    vectorised); nan where they are not."""
-    env = dict(vals)
-    sides = []
-    for x in (0.0, 1.0, 2.0):
-        env[name] = np.full(n, x)
-        sides.append((np.broadcast_to(lhs(env), (n,)), np.broadcast_to(rhs(env), (n,))))
-    (l0, r0), (l1, r1), (l2, r2) = sides
-    slope_l, slope_r = l1 - l0, r1 - r0
-    linear = ((np.abs((l2 - l1) - slope_l) <= 1e-9 * (1 + np.abs(slope_l)))
-              & (np.abs((r2 - r1) - slope_r) <= 1e-9 * (1 + np.abs(slope_r))))
-    slope = slope_l - slope_r
-    ok = linear & (slope != 0)
-    return np.where(ok, (r0 - l0) / np.where(ok, slope, 1.0), np.nan)
+def _families(symbols: dict[str, Node]) -> dict[str, bool]:
+    """Every family of the model (name -> Boolean-valued); Unsupported for a symbol the batch
+    cannot keep."""
+    out: dict[str, bool] = {}
+    for name, sym in symbols.items():
+        sort = sym.sort
+        if sort.is_array:
+            check_family(sym)
+            out[name] = sort.range == BOOL
+        elif sort != REAL and not is_index_sort(sort):
+            raise Unsupported(f"`{name}` is not a real scalar, a family over an index sort or an index")
+    return out
+
+
+def _where(leaf: Leaf, bind: Bind) -> tuple:
+    """A leaf with its bound element filled in: which value it is, for counting repairs."""
+    name, index = leaf
+    return (name, bind.get(index, index)) if index is not None else (name,)
 
 
 _COMPILED: dict[tuple, BatchProgram | Unsupported] = {}

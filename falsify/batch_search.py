@@ -7,7 +7,8 @@ the tree-walking interpreter replays its initial state and decisions, in exact r
 arithmetic where the flows have closed forms, else with validated enclosures of the flows
 (`validated.py`), else in floating point (so named) with a violation deeper than the
 search's tolerance — the check every reported counterexample passes. A
-candidate that does not replay is dropped.
+candidate that does not replay is dropped. A model with families runs each round's runs
+split over the family sizes of the search's range, one batch per size (`_split`).
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import numpy as np
 from certiloop.falsify.batch import compiled
 from certiloop.falsify.choosers import Diverged, Scripted
 from certiloop.falsify.depth import _deep, float_only
-from certiloop.falsify.evaluate import Blocked, Compiler, NeedValue
+from certiloop.falsify.evaluate import Blocked, Compiler, NeedValue, Table
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
 from certiloop.falsify.state import solve_linear
@@ -53,23 +54,40 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
     except Unsupported as exc:
         return BatchOutcome(0, 0, unsupported=str(exc))
     rng = np.random.default_rng(seed)
+    sizes = program.sizes(families)
     drawn = started = confirms = 0
     size = FIRST_BATCH
     while drawn < runs:
         size = min(size, runs - drawn)
-        batch = program.simulate(rng, size)
-        started += int(batch.accepted.sum())
-        for r in batch.candidates()[:CONFIRMS_PER_BATCH]:
-            if confirms >= MAX_CONFIRMS:
-                break
-            confirms += 1
-            initial, script = batch.initial_state(r), batch.script(r)
-            run, check = confirm_candidate(theorem, initial, script, max_steps, families)
-            if check:
-                return BatchOutcome(drawn + r + 1, started, run, check, initial, script)
-        drawn += size
-        size = min(4 * size, BATCH_SIZE)
+        for elements, count in _split(size, sizes):
+            batch = program.simulate(rng, count, elements)
+            started += int(batch.accepted.sum())
+            for r in batch.candidates()[:CONFIRMS_PER_BATCH]:
+                if confirms >= MAX_CONFIRMS:
+                    break
+                confirms += 1
+                initial, script = batch.initial_state(r), batch.script(r)
+                run, check = confirm_candidate(theorem, initial, script, max_steps, families)
+                if check:
+                    return BatchOutcome(drawn + r + 1, started, run, check, initial, script)
+            drawn += count
+        size = _grow(size, len(sizes))
     return BatchOutcome(drawn, started)
+
+
+def _grow(size: int, sizes: int) -> int:
+    """The next round's runs: 4x, up to BATCH_SIZE per batch. Split over several family sizes,
+    a round pays each batch's per-statement cost once per size: it grows 16x (sbs.ctrl2's
+    4,096 runs in 16 batches rather than 24: 4.0 -> 2.7 s)."""
+    if sizes == 1:
+        return min(4 * size, BATCH_SIZE)
+    return min(16 * size, BATCH_SIZE * sizes)
+
+
+def _split(runs: int, sizes: list[int]) -> list[tuple[int, int]]:
+    """`runs` shared out over the family sizes as evenly as can be, as (size, runs) pairs."""
+    share, extra = divmod(runs, len(sizes))
+    return [(m, share + (k < extra)) for k, m in enumerate(sizes) if share + (k < extra) > 0]
 
 
 def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_steps: int,
@@ -110,7 +128,7 @@ def exact_initial(theorem: Theorem, initial: dict[str, float], c: Compiler) -> d
     the floats meet only up to rounding (x = 33/10000, a·z = 0) solved exactly for one of
     its values, where that moves the value by rounding only. The interpreter then checks
     the assumptions exactly, so this can only make a replay possible, never forge one."""
-    s: dict[str, Any] = {k: Fraction(v) for k, v in initial.items()}
+    s: dict[str, Any] = {k: _exact(v) for k, v in initial.items()}
     for atom in conjuncts(theorem.assumptions):
         if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
             continue
@@ -132,3 +150,12 @@ def exact_initial(theorem: Theorem, initial: dict[str, float], c: Compiler) -> d
                 break
             s[name] = old
     return s
+
+
+def _exact(v: Any) -> Any:
+    """A value of a float initial state as a rational (families cell by cell)."""
+    if isinstance(v, Table):
+        return Table({k: _exact(x) for k, x in v.cells.items()}, v.default)
+    if isinstance(v, (bool, range)):
+        return v
+    return Fraction(v)

@@ -1,6 +1,6 @@
 """Hypothesis-driven search for a run that violates a theorem's guarantee.
 
-A model the batch simulator compiles (the scalar real fragment) is first run in vectorised
+A model the batch simulator compiles (reals, families over one index sort) is first run in vectorised
 batches seeded by the search's seed (`batch_search`): thousands of runs per second, a hit
 reported only after the interpreter replayed it. Hypothesis then searches as before.
 
