@@ -53,6 +53,8 @@ class Options:
     database: Path | None = DEFAULT_DATABASE
     shrink: bool = True  # False: report the first violating run as found (benchmarks)
     batch_runs: int = 4096  # runs of the vectorised batch phase before hypothesis (0: none)
+    after_batch_examples: int | None = None  # hypothesis examples once the batch phase ran
+    # all its runs and found nothing (None: max_examples); the gate's budget for safe models
 
     def digest(self) -> str:
         return f"{self.families}/{self.max_steps}"
@@ -116,6 +118,9 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
             return Falsification(theorem.name, True, outcome.runs, time.perf_counter() - start, outcome.run,
                                  outcome.check, outcome.script or [], phase="batch", initial=outcome.initial)
         batched = outcome.runs
+    examples = opts.max_examples
+    if batched and opts.after_batch_examples is not None:
+        examples = min(examples, opts.after_batch_examples)
     interp = Interpreter(theorem, max_steps=opts.max_steps, families=opts.families)
     count = {"examples": 0, "first": 0, "near": 0}
 
@@ -148,7 +153,7 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     # settings after seed: `@seed` switches the example database off, and so it was never
     # written (nor a failure found once tried first the next time)
     test = fixed_seed(opts.seed)(given(st.data())(one_run))
-    test = settings(max_examples=opts.max_examples, database=db, deadline=None, phases=phases,
+    test = settings(max_examples=examples, database=db, deadline=None, phases=phases,
                     derandomize=False,
                     verbosity=Verbosity.quiet, report_multiple_bugs=False, print_blob=False,
                     suppress_health_check=list(HealthCheck))(test)

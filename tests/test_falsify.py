@@ -227,3 +227,30 @@ def test_the_search_does_not_depend_on_what_the_process_imported(tmp_path, monke
     after = falsify(theorem, opts)
     assert (after.found, after.examples) == (before.found, before.examples)
     assert after.script == before.script
+
+
+def test_after_a_clean_batch_phase_hypothesis_runs_the_smaller_budget():
+    """The gate's budget for a safe model: once the batch phase swept its runs and found
+    nothing, hypothesis runs `after_batch_examples`; without a batch phase, all of them."""
+    train = library.get("textbook.train")
+    opts = dict(max_examples=60, seed=0, database=None, shrink=False)
+    full = falsify(train, Options(batch_runs=256, **opts))
+    cut = falsify(train, Options(batch_runs=256, after_batch_examples=7, **opts))
+    assert not full.found and not cut.found
+    # examples count every run tried, rejected ones too (hypothesis counts only valid ones)
+    assert full.examples - 256 >= 60 > cut.examples - 256 > 0
+    unswept = falsify(train, Options(batch_runs=0, after_batch_examples=7, **opts))
+    assert not unswept.found and unswept.examples >= 60
+
+
+def test_the_gate_keeps_the_full_budget_for_mutants(monkeypatch):
+    from certiloop.proofs.cli import gate
+
+    seen = {}
+    monkeypatch.setattr("certiloop.falsify.search.falsify", lambda th, o: seen.setdefault(th.name, o))
+    opts = gate.GateOptions(falsify_examples=300)
+    gate.falsify_task(library.get("textbook.train"), opts)
+    gate.falsify_task(library.get("textbook.train_no_lookahead"), opts)
+    assert seen["textbook.train"].after_batch_examples == 100
+    mutant = seen["textbook.train_no_lookahead"]
+    assert mutant.after_batch_examples is None and mutant.max_examples == 300 * gate.REFUTED_FACTOR

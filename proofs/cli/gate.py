@@ -103,6 +103,9 @@ AHEAD = 2  # falsifiers queued ahead of the model being proved: while the main p
 # the next obligations, both workers have a falsifier to run (22-model gate: 45.0 s -> 41.2 s)
 REFUTED_FACTOR = 10  # a model expected refuted may take 10x the examples: the search stops at
 # its first violating run, so this costs only when there is none (some seeds need 500+)
+AFTER_BATCH_SHARE = 3  # a model expected proved whose 4,096 batch runs found nothing gets a
+# third of the hypothesis examples: guided runs towards small margins after the broad sweep
+# (sbs.ctrl2's falsifier: 6.8 -> 4.7 s; sbs.ctrl1: 1.9 -> 0.9 s). Mutants keep the full budget.
 
 
 @dataclass
@@ -120,8 +123,11 @@ def falsify_task(theorem: Theorem, opts: GateOptions):
     runs beside it (a seeded search: the same answer in any process)."""
     from certiloop.falsify.search import Options, falsify
 
-    examples = opts.falsify_examples * (REFUTED_FACTOR if theorem.expected == "refuted" else 1)
-    return falsify(theorem, Options(max_examples=examples, seed=opts.seed, database=None, shrink=False))
+    refuted = theorem.expected == "refuted"
+    examples = opts.falsify_examples * (REFUTED_FACTOR if refuted else 1)
+    after_batch = None if refuted else max(1, opts.falsify_examples // AFTER_BATCH_SHARE)
+    return falsify(theorem, Options(max_examples=examples, seed=opts.seed, database=None, shrink=False,
+                                    after_batch_examples=after_batch))
 
 
 def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
