@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from fractions import Fraction
+from functools import cached_property
 from typing import Any, Iterable
 
 from certiloop.models.lang import notation
@@ -38,6 +39,11 @@ class Sort:
         return self.name in ("Real", "Int")
 
     def __str__(self) -> str:
+        return self.text
+
+    @cached_property
+    def text(self) -> str:
+        """The sort as printed (and in every node's key): computed once per sort."""
         if self.is_array:
             return f"{'×'.join(map(str, self.domain))}→{self.range}"
         return self.name
@@ -113,7 +119,7 @@ class Node:
                 pay = tuple(v.key for v in pay)
             elif self.op in MODALITIES:
                 pay = pay.key
-            cached = (self.op, str(self.sort), pay, tuple(a.key for a in self.args))
+            cached = (self.op, self.sort.text, pay, tuple([a.key for a in self.args]))
             object.__setattr__(self, "_key", cached)
         return cached
 
