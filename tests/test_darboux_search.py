@@ -84,6 +84,9 @@ CASES = [  # (pre, system, post, rhs, starts, witness)
                  lambda x, y: x**2 + y**2 >= 0.5, id="outside a limit cycle: cofactor 2(x^2+y^2)"),
     pytest.param(And(x == Fraction(1, 4), y == 0), ENERGY, x <= 1, ENERGY_RHS, [[0.25, 0.0]],
                  lambda x, y: x <= 1, id="a cubic first integral at its start value"),
+    pytest.param(And(x >= 0, x <= Fraction(1, 4), y == 0), ENERGY, x <= 1, ENERGY_RHS,
+                 grid((0, Fraction(1, 4)), (0, 0)), lambda x, y: x <= 1,
+                 id="a cubic first integral below its range over the initial box"),
     pytest.param(And(x == 1, y == 2, z == 3), ROCK, x <= 6, ROCK_RHS, [[1.0, 2.0, 3.0]],
                  lambda x, y, z: x <= 6, id="3 variables: x + y + z = 6, y > 0, z > 0"),
 ]
@@ -153,6 +156,20 @@ def test_deterministic_same_candidates_same_order():
     darboux_search._cache.clear()
     assert [a.key for a in search_atoms(theorem, ROCK)] == first
     assert [str(a) for a in search_atoms(theorem, ROCK)][:4] == ["x > 0", "y > 0", "z > 0", "x + y + z = 6"]
+
+
+def test_atoms_follow_the_range_over_the_initial_box():
+    """The start's sign when the box decides it, both signs when it does not; a first
+    integral gets the enclosure of its values (interval arithmetic, so wider, never narrower)."""
+    def atoms(pre, system):
+        return [str(a) for a in search_atoms(Theorem("t", pre, system, x > 0), system)]
+
+    assert atoms(And(x >= H, x <= 2, y >= H, y <= 2), LV) == ["x > 0", "y > 0"]
+    assert atoms(And(x >= 0, x <= 2, y <= -1), LV) == ["x >= 0", "y < 0"]
+    assert atoms(x**2 + y**2 <= 1, LV) == ["x >= 0", "x <= 0", "y >= 0", "y <= 0"]
+    # 2x^3 + 3x^2 + 3y^2 over x in [0, 1/4], y = 0: [0, 2/64 + 3/16]
+    assert atoms(And(x >= 0, x <= Fraction(1, 4), y == 0), ENERGY) == [
+        "2*x^3 + 3*x^2 + 3*y^2 >= 0", "2*x^3 + 3*x^2 + 3*y^2 <= 7/32"]
 
 
 # ----------------------------------------------------------------- the exact check decides

@@ -44,7 +44,7 @@ from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
 MAX_VARS = 4
 MAX_ENTRIES = 2500  # rows x columns of one linear system: keeps each solve to milliseconds
 MAX_SHIFTS = 8  # non-constant cofactor parts tried per degree
-MAX_FOUND = 6  # Darboux polynomials proposed per ODE (each gives two atoms to the planner)
+MAX_FOUND = 6  # Darboux polynomials proposed per ODE (each gives one or two atoms to the planner)
 MAX_FACTOR_DEGREE = 3  # factors of the field's components tried as p directly
 Exp = tuple[int, ...]
 
@@ -53,9 +53,10 @@ _cache: dict[tuple, list[Node]] = {}
 
 def search_atoms(theorem: Theorem, ode: ODE) -> list[Node]:
     """Candidate atoms from the Darboux polynomials of a non-affine polynomial ODE, or [].
-    Where the assumptions fix the start point, one atom per p with the sign p has there
-    (`p > 0`, `p < 0`, `p = 0`; a first integral: `p = c` with c its value there); else
-    `p >= 0` and `p <= 0`. Deterministic; cached per input."""
+    Per p, from its range [lo, hi] over the box the assumptions' bounds give the ODE's
+    variables (a point where they fix it): the sign p has there (`p > 0`, `p < 0`, `p = 0`,
+    `p >= 0`, `p <= 0`), for a first integral `lo <= p`, `p <= hi` (`p = c` at a point);
+    without a box, `p >= 0` and `p <= 0`. Deterministic; cached per input."""
     key = (ode.key, theorem.assumptions.key)
     if key not in _cache:
         if len(_cache) > 256:  # a long campaign: keep memory bounded
@@ -73,22 +74,40 @@ def _atoms(theorem: Theorem, ode: ODE) -> list[Node]:
     field = _field(ode, xs, table)
     if field is None or max(f.total_degree() for f in field) < 2:
         return []  # not polynomial over QQ, or affine: darboux.py's eigenvectors cover it
-    start = _start_point(theorem, ode, table)
+    box = _start_box(theorem, ode, table)
     atoms: list[Node] = []
     for p, g in darboux_polynomials(field, xs):
-        atoms += _signed(from_sympy(p.as_expr(), table), _value_at(p, start), g.is_zero)
+        atoms += _proposed(from_sympy(p.as_expr(), table), _range(p, box), g.is_zero)
     return atoms
 
 
-def _signed(p: Node, value: sympy.Rational | None, first_integral: bool) -> list[Node]:
-    """The atoms proposed for a Darboux polynomial p whose value at the start is `value`
-    (None: not fixed by the assumptions). Its sign never changes, so the start's sign is the
-    strongest claim; the core checks the start anyway."""
-    if value is None:
-        return [cmp(">=", p, 0), cmp("<=", p, 0)]
-    if first_integral:
-        return [cmp("==", p, const(Fraction(int(value.p), int(value.q))))]
-    return [cmp(">" if value > 0 else "<" if value < 0 else "==", p, 0)]
+Interval = tuple[sympy.Rational | None, sympy.Rational | None]  # None: unbounded
+
+
+def _proposed(p: Node, span: Interval, first_integral: bool) -> list[Node]:
+    """The atoms proposed for a Darboux polynomial p whose values at the start lie in `span`.
+    Its sign never changes, so the start's sign is the strongest claim (a first integral keeps
+    its value); the range only guides the choice: the core checks the start anyway."""
+    lo, hi = span
+    if first_integral and (lo is not None or hi is not None):
+        if lo == hi:
+            return [cmp("==", p, _const(lo))]
+        return [cmp(op, p, _const(c)) for op, c in ((">=", lo), ("<=", hi)) if c is not None]
+    if lo is not None and lo > 0:
+        return [cmp(">", p, 0)]
+    if hi is not None and hi < 0:
+        return [cmp("<", p, 0)]
+    if lo == 0 and hi == 0:
+        return [cmp("==", p, 0)]
+    if lo == 0:
+        return [cmp(">=", p, 0)]
+    if hi == 0:
+        return [cmp("<=", p, 0)]
+    return [cmp(">=", p, 0), cmp("<=", p, 0)]
+
+
+def _const(c: sympy.Rational) -> Node:
+    return const(Fraction(int(c.p), int(c.q)))
 
 
 def _field(ode: ODE, xs: list[sympy.Symbol], table: SympyTable) -> list[sympy.Poly] | None:
@@ -107,26 +126,76 @@ def _field(ode: ODE, xs: list[sympy.Symbol], table: SympyTable) -> list[sympy.Po
     return field
 
 
-def _start_point(theorem: Theorem, ode: ODE, table: SympyTable) -> dict[sympy.Symbol, sympy.Rational]:
-    """The ODE variables the assumptions fix to a rational number (`x = 1`)."""
+def _start_box(theorem: Theorem, ode: ODE, table: SympyTable) -> dict[sympy.Symbol, Interval]:
+    """Bounds the assumptions' conjuncts put on the ODE's variables (`x >= 1/2`, `x = 1`, a
+    strict bound read as non-strict), each variable's tightest."""
     names = {v.payload: table.symbol(v) for v in ode.variables}
-    point = {}
+    box: dict[sympy.Symbol, list] = {}
     for atom in conjuncts(theorem.assumptions):
-        if atom.op != "cmp" or atom.payload != "==":
+        if atom.op != "cmp" or atom.payload == "!=" or not atom.args[0].sort.is_numeric:
             continue
         a, b = atom.args
-        for var, val in ((a, b), (b, a)):
-            if var.op == "var" and var.payload in names:
-                v = sympy.sympify(to_sympy(val, SympyTable()))
-                if v.is_Rational:
-                    point.setdefault(names[var.payload], v)
-    return point
+        for var, val, op in ((a, b, atom.payload), (b, a, _FLIPPED[atom.payload])):
+            if var.op != "var" or var.payload not in names:
+                continue
+            try:
+                c = to_sympy(val, SympyTable())
+            except TypeError:
+                continue
+            if not c.is_Rational:
+                continue
+            lo, hi = box.setdefault(names[var.payload], [None, None])
+            if op in (">=", ">", "=="):
+                box[names[var.payload]][0] = c if lo is None else max(lo, c)
+            if op in ("<=", "<", "=="):
+                box[names[var.payload]][1] = c if hi is None else min(hi, c)
+    return {v: (lo, hi) for v, (lo, hi) in box.items()}
 
 
-def _value_at(p: sympy.Poly, point: dict) -> sympy.Rational | None:
-    if not set(p.gens) <= set(point):
-        return None
-    return sympy.Rational(p.as_expr().xreplace(point))
+_FLIPPED = {">=": "<=", ">": "<", "<=": ">=", "<": ">", "==": "=="}
+
+
+def _range(p: sympy.Poly, box: dict[sympy.Symbol, Interval]) -> Interval:
+    """An enclosure of p's values over the box, by interval arithmetic on its monomials."""
+    total: Interval = (sympy.Integer(0), sympy.Integer(0))
+    for exps, c in p.as_dict().items():
+        term: Interval = (c, c)
+        for v, k in zip(p.gens, exps):
+            if k:
+                term = _times(term, _power(box.get(v, (None, None)), k))
+        total = (_add(total[0], term[0]), _add(total[1], term[1]))
+    return total
+
+
+def _add(a, b):
+    return None if a is None or b is None else a + b
+
+
+def _power(span: Interval, k: int) -> Interval:
+    lo, hi = span
+    if k % 2 == 1:
+        return (None if lo is None else lo**k, None if hi is None else hi**k)
+    if lo is not None and lo >= 0:
+        return (lo**k, None if hi is None else hi**k)
+    if hi is not None and hi <= 0:
+        return (hi**k, None if lo is None else lo**k)
+    top = None if lo is None or hi is None else max(lo**k, hi**k)
+    return (sympy.Integer(0), top)
+
+
+def _times(a: Interval, b: Interval) -> Interval:
+    """Interval product. With an unbounded end: a constant a scales b, else all is unbounded
+    (simple, and only ever a wider enclosure)."""
+    if a == (0, 0) or b == (0, 0):
+        return (sympy.Integer(0), sympy.Integer(0))
+    if None in a or None in b:
+        if a[0] is not None and a[0] == a[1]:  # a constant times an interval
+            c = a[0]
+            ends = (None if b[0] is None else c * b[0], None if b[1] is None else c * b[1])
+            return ends if c >= 0 else (ends[1], ends[0])
+        return (None, None)
+    products = [x * y for x in a for y in b]
+    return (min(products), max(products))
 
 
 # --------------------------------------------------------------------------- the search
