@@ -133,6 +133,14 @@ def test_known_darboux_polynomials_are_found(exprs, gens, expected):
     assert expected <= found
 
 
+def test_a_first_integral_is_proposed_once_whatever_its_constant():
+    """p and p - 50 are both first integrals of x' = -(y+5)^2, y' = 8(x-20)(y+5) (p - 50
+    comes as a factor of the Darboux polynomial (y + 5)(p - 50)); one is kept."""
+    found = darboux_polynomials(field(-Y**2 - 10 * Y - 25, 8 * X * Y + 40 * X - 160 * Y - 800), [X, Y])
+    assert [(p.as_expr(), g.as_expr()) for p, g in found] == [
+        (Y + 5, 8 * X - 160), (8 * X**2 - 320 * X + Y**2 + 10 * Y, 0)]
+
+
 def test_nothing_for_affine_parametric_or_non_polynomial_fields():
     a = Reals("a")[0]
     affine = ode({x: -x + y, y: -2 * y})

@@ -213,8 +213,11 @@ def darboux_polynomials(field: list[sympy.Poly], xs: list[sympy.Symbol],
     def add(p: sympy.Poly) -> None:
         for q in _irreducible_parts(p):
             g = _cofactor(q, field)
-            key = _key(q)
-            if g is not None and key not in found and len(found) < MAX_FOUND:
+            if g is None:
+                continue
+            # first integrals p and p + c are one: their atoms are chosen by the range anyway
+            key = _key(_nonconstant(q)) if g.is_zero else _key(q)
+            if key not in found and len(found) < MAX_FOUND:
                 found[key] = (q, g)
 
     for q in _component_factors(field):
