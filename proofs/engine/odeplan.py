@@ -9,12 +9,12 @@ polynomials found by linear algebra (darboux.py: affine systems; darboux_search.
 degree-bounded search for nonlinear polynomial ones). A second search, once the first left
 obligations open, builds such an ODE's chain from polynomial certificates `V <= c` found by
 an SDP (certificates.py), each with the one rule it was made for. Each round generates the
-obligations with the current chains and discharges the links' own obligations; the first
-failing link of a chain then changes: the links that do not hold initially are dropped (all
-at once: the start does not depend on the chain), else the first one whose premise fails tries
-its next rule (dI, dbx with the quotient of p' by p as cofactor,
-the strict barrier), then once the end of the chain (where more atoms are known), then is
-dropped. The round count is bounded, so the plan is deterministic.
+obligations with the current chains and discharges the links' own obligations; then, per
+chain, the links that do not hold initially are all dropped (whether a link holds at the
+start does not depend on the other links of its chain), or else the first link whose premise
+fails tries its next rule (dI, dbx with the quotient of p' by p as cofactor, the strict
+barrier), then once the end of the chain (where more atoms are known), then is dropped. The
+round count is bounded, so the plan is deterministic.
 """
 
 from __future__ import annotations
