@@ -5,14 +5,16 @@ sound whatever the chain (see proofs/core/odes.py), so a wrong choice here can o
 prove. The candidates for an ODE are its annotated invariants, atom by atom; for an ODE with
 neither an annotation nor a polynomial solution, the atoms of the guarantee, the domain and
 the assumptions that mention its variables (automatic invariants), with the Darboux
-polynomials found by linear algebra (darboux.py). A second search, once the first left
+polynomials found by linear algebra (darboux.py: affine systems; darboux_search.py: a
+degree-bounded search for nonlinear polynomial ones). A second search, once the first left
 obligations open, builds such an ODE's chain from polynomial certificates `V <= c` found by
 an SDP (certificates.py), each with the one rule it was made for. Each round generates the
-obligations with the current chains and discharges the links' own obligations; the first
-failing link of a chain then changes: a link that does not hold initially is dropped, one
-whose premise fails tries its next rule (dI, dbx with the quotient of p' by p as cofactor,
-the strict barrier), then once the end of the chain (where more atoms are known), then is
-dropped. The round count is bounded, so the plan is deterministic.
+obligations with the current chains and discharges the links' own obligations; then, per
+chain, the links that do not hold initially are all dropped (whether a link holds at the
+start does not depend on the other links of its chain), or else the first link whose premise
+fails tries its next rule (dI, dbx with the quotient of p' by p as cofactor, the strict
+barrier), then once the end of the chain (where more atoms are known), then is dropped. The
+round count is bounded, so the plan is deterministic.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.core.wd import has_division
 from certiloop.proofs.engine.darboux import darboux_atoms
+from certiloop.proofs.engine.darboux_search import search_atoms
 
 MAX_ROUNDS = 40
 Plan = dict[tuple, tuple[OdeStep, ...]]
@@ -81,7 +84,10 @@ def candidates(theorem: Theorem, ode: ODE) -> list[Node] | None:
         return None
     names = {v.payload for v in ode.variables}
     seen: dict[tuple, Node] = {}
-    for source in (theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))):
+    # the search's atoms (none for an affine system) first: each is a Darboux identity, proved
+    # without a premise, so it needs no earlier link and gives every later link one more fact
+    first = And(*search_atoms(theorem, ode))
+    for source in (first, theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))):
         for atom in conjuncts(source):
             if atom.key not in seen and set(free_vars(atom)) & names and _usable(atom, ode):
                 seen[atom.key] = atom
@@ -156,16 +162,24 @@ def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResu
         if not failed:
             return plan
         for key, bad in failed.items():
-            _revise(chains[key], min(bad), bad[min(bad)])
+            if starts := [n for n, kind in bad.items() if kind == "init"]:
+                _drop(chains[key], starts)
+            else:
+                _revise(chains[key], min(bad))
     return plan
 
 
-def _revise(links: list[_Link], n: int, kind: str) -> None:
-    """Change the first failing link (number n, from 1) of a chain."""
-    link = links[n - 1]
-    if kind == "init":
+def _drop(links: list[_Link], numbers: list[int]) -> None:
+    """Drop the links (numbers from 1) that do not hold initially, all in one round: whether a
+    link holds at the start does not depend on the other links of its chain."""
+    for n in sorted(numbers, reverse=True):
         del links[n - 1]
-    elif link.tried + 1 < len(link.options):
+
+
+def _revise(links: list[_Link], n: int) -> None:
+    """Change the first failing link (number n, from 1) of a chain, whose premise failed."""
+    link = links[n - 1]
+    if link.tried + 1 < len(link.options):
         link.tried += 1
     elif not link.deferred and n < len(links):
         del links[n - 1]
