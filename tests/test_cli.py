@@ -221,3 +221,20 @@ def test_a_model_file_imports_its_sibling_module(tmp_path):
         t = Theorem("u.sibling", x >= LIMIT, assign(y, x), y >= LIMIT)
     """))
     assert main(["prove", f"{tmp_path / 'm.py'}:t", "--jobs", "1"]) == 0
+
+
+def test_the_command_collects_garbage_less_often_and_restores_the_setting(monkeypatch):
+    """The CLI raises the cyclic collector's threshold for its run (forked workers inherit
+    it) and puts the caller's setting back, for in-process callers such as this test."""
+    import gc
+    import importlib
+
+    from certiloop.proofs.cli import guards
+
+    cli_main = importlib.import_module("certiloop.proofs.cli.main")
+
+    seen = []
+    monkeypatch.setattr(cli_main, "_main", lambda argv: seen.append(gc.get_threshold()) or 0)
+    before = gc.get_threshold()
+    assert main(["list"]) == 0
+    assert seen == [guards.GC_THRESHOLDS] and gc.get_threshold() == before

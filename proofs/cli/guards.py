@@ -4,12 +4,27 @@ not after a long run), and Ctrl-C (exit 130 on one line, workers silent). No ric
 
 from __future__ import annotations
 
+import gc
 import os
 import signal
 from pathlib import Path
 from typing import Callable
 
 EXIT_INTERRUPTED = 130
+
+
+GC_THRESHOLDS = (20_000, 10, 10)  # Python's default is (700, 10, 10)
+
+
+def collect_garbage_less_often() -> Callable[[], None]:
+    """The prover allocates millions of short-lived term tuples; at Python's default the
+    cyclic collector ran every 700 allocations and traversed the whole heap (sympy's caches
+    included) every 70,000: 10-15 % of a proof's CPU. Reference counting still frees all
+    acyclic garbage at once, so this only delays freeing cycles (peak memory +1 % on
+    sbs.ctrl2). Forked workers inherit it. Returns the undo, for in-process callers."""
+    old = gc.get_threshold()
+    gc.set_threshold(*GC_THRESHOLDS)
+    return lambda: gc.set_threshold(*old)
 
 
 class OutputPathError(Exception):

@@ -240,6 +240,7 @@ def main(argv: list[str] | None = None) -> int:
     from certiloop.proofs.cli import guards
 
     restore = guards.on_interrupt_exit_quietly()
+    restore_gc = guards.collect_garbage_less_often()
     try:
         return _main(argv)
     except (BadInput, guards.OutputPathError) as exc:
@@ -265,6 +266,7 @@ def main(argv: list[str] | None = None) -> int:
               "(set CERTILOOP_DEBUG=1 for the traceback)", file=sys.stderr)
         return EXIT_BAD_INPUT
     finally:
+        restore_gc()
         restore()
 
 

@@ -60,6 +60,13 @@ def check_valid(formula: Node, rlimit: int, wall_s: float = 600.0) -> SolverAnsw
     if formula.op == "true":
         return SolverAnswer("unsat")
     tr = Z3Translator()
+    try:
+        return _check(formula, tr, rlimit, wall_s)
+    finally:
+        tr.release()
+
+
+def _check(formula: Node, tr: Z3Translator, rlimit: int, wall_s: float) -> SolverAnswer:
     goal = z3.Not(tr(formula))
     if _quantifier_free(formula) and _pure_real(tr, formula):
         solver = z3.SolverFor("QF_NRA", ctx=tr.ctx)

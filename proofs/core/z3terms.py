@@ -33,7 +33,7 @@ class Z3Translator:
 
     `symbols` and `sorts` hold z3's Python objects for the model's symbols and index sorts
     (for reading a model back); everything else stays a raw C term, kept alive by a
-    reference this translator holds until its context is deleted."""
+    reference this translator holds until `release`."""
 
     def __init__(self) -> None:
         self.ctx = z3.Context()
@@ -44,7 +44,25 @@ class Z3Translator:
         self._int = z3.IntSort(self.ctx)
         self._bool = z3.BoolSort(self.ctx)
         self._memo: dict[int, tuple[Node, z3core.Ast, Sort]] = {}  # id(node): (node kept alive, term, sort)
+        self._held: list[z3core.Ast] = []  # every reference taken, oldest first
         self._empty = z3core.Z3_mk_string_symbol(self._c, "")  # a quantifier's qid and skid
+
+    def _hold(self, term: z3core.Ast) -> None:
+        _inc_ref(self._c, term)
+        self._held.append(term)
+
+    def release(self) -> None:
+        """Drops this translator's references to its raw terms; z3's Python objects made from
+        them (the goal, the model's symbols) keep their own. Newest first, so each term is
+        freed right after its last parent. A context deleted while its terms are still
+        referenced frees them by sweeping its whole term table once per level of nesting:
+        3.9 ms per check on sbs.ctrl2_dynamic, against 0.1 ms this way. The translator
+        must not be used afterwards."""
+        dec = z3core.Z3_dec_ref
+        for term in reversed(self._held):
+            dec(self._c, term)
+        self._held.clear()
+        self._memo.clear()
 
     # ---- sorts
     def sort(self, s: Sort) -> z3.SortRef:
@@ -78,7 +96,7 @@ class Z3Translator:
             if hit is not None:
                 return hit[1], hit[2]
         out = self._build(n, bound)
-        _inc_ref(self._c, out[0])  # the context frees it; until then it must outlive later calls
+        self._hold(out[0])  # it must outlive later calls, which may build its parents
         if not bound:
             self._memo[id(n)] = (n, *out)
         return out
@@ -181,7 +199,7 @@ class Z3Translator:
 
     def _to_real(self, t: z3core.Ast) -> z3core.Ast:
         out = z3core.Z3_mk_int2real(self._c, t)
-        _inc_ref(self._c, out)  # z3 frees an unreferenced term at the next call that builds one
+        self._hold(out)  # z3 frees an unreferenced term at the next call that builds one
         return out
 
     def _cast(self, term: tuple[z3core.Ast, Sort], target: Sort) -> z3core.Ast:
