@@ -48,7 +48,10 @@ class BatchOutcome:
 
 
 def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
-                 families: tuple[int, int]) -> BatchOutcome:
+                 families: tuple[int, int], first: int = FIRST_BATCH) -> BatchOutcome:
+    """first: the first round's runs. Small finds an easy counterexample at once; a search
+    expected to draw all `runs` (a model expected safe) takes them in one round: fewer,
+    larger batches (sbs.ctrl2's 4,096 runs 3.4 -> 2.6 s CPU)."""
     try:
         program = compiled(theorem, max_steps)
     except Unsupported as exc:
@@ -56,7 +59,7 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
     rng = np.random.default_rng(seed)
     sizes = program.sizes(families)
     drawn = started = confirms = 0
-    size = FIRST_BATCH
+    size = max(1, first)
     while drawn < runs:
         size = min(size, runs - drawn)
         for elements, count in _split(size, sizes):

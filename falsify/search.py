@@ -55,6 +55,8 @@ class Options:
     batch_runs: int = 4096  # runs of the vectorised batch phase before hypothesis (0: none)
     after_batch_examples: int | None = None  # hypothesis examples once the batch phase ran
     # all its runs and found nothing (None: max_examples); the gate's budget for safe models
+    batch_first: int | None = None  # the batch's first round (None: small, to find an easy
+    # counterexample at once); the gate draws a model expected safe in one round
 
     def digest(self) -> str:
         return f"{self.families}/{self.max_steps}"
@@ -113,7 +115,8 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     if opts.batch_runs > 0:  # many seeded runs at once; a hit is reported only once replayed
         from certiloop.falsify.batch_search import batch_search
 
-        outcome = batch_search(theorem, opts.batch_runs, opts.seed, opts.max_steps, opts.families)
+        first = {} if opts.batch_first is None else {"first": opts.batch_first}
+        outcome = batch_search(theorem, opts.batch_runs, opts.seed, opts.max_steps, opts.families, **first)
         if outcome.run is not None:
             return Falsification(theorem.name, True, outcome.runs, time.perf_counter() - start, outcome.run,
                                  outcome.check, outcome.script or [], phase="batch", initial=outcome.initial)

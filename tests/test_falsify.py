@@ -251,6 +251,19 @@ def test_the_gate_keeps_the_full_budget_for_mutants(monkeypatch):
     opts = gate.GateOptions(falsify_examples=300)
     gate.falsify_task(library.get("textbook.train"), opts)
     gate.falsify_task(library.get("textbook.train_no_lookahead"), opts)
-    assert seen["textbook.train"].after_batch_examples == 100
+    safe = seen["textbook.train"]
+    assert safe.after_batch_examples == 100 and safe.batch_first == safe.batch_runs  # one round
     mutant = seen["textbook.train_no_lookahead"]
     assert mutant.after_batch_examples is None and mutant.max_examples == 300 * gate.REFUTED_FACTOR
+    assert mutant.batch_first is None  # small rounds first: an easy counterexample at once
+
+
+@pytest.mark.parametrize("first, rounds", [(256, [256, 1024, 2816]), (4096, [4096])])
+def test_the_batch_phase_grows_its_rounds_from_the_first(monkeypatch, first, rounds):
+    """All the runs either way; a search expected to find nothing draws them in one round."""
+    from certiloop.falsify import batch_search as bs
+
+    drawn = []
+    monkeypatch.setattr(bs, "_split", lambda runs, sizes: drawn.append(runs) or [(sizes[0], runs)])
+    outcome = bs.batch_search(library.get("textbook.train"), 4096, 0, 3, (1, 8), first=first)
+    assert drawn == rounds and outcome.runs == 4096 and outcome.run is None

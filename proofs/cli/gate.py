@@ -127,7 +127,8 @@ def falsify_task(theorem: Theorem, opts: GateOptions):
     examples = opts.falsify_examples * (REFUTED_FACTOR if refuted else 1)
     after_batch = None if refuted else max(1, opts.falsify_examples // AFTER_BATCH_SHARE)
     return falsify(theorem, Options(max_examples=examples, seed=opts.seed, database=None, shrink=False,
-                                    after_batch_examples=after_batch))
+                                    after_batch_examples=after_batch,
+                                    batch_first=None if refuted else Options.batch_runs))
 
 
 def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,

@@ -125,15 +125,16 @@ def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) 
                 changed[0] = True
                 return direct
             n = direct
+            atom_syms = set(_syms(n))
+            # only instances built from this atom's own symbols (right SSA versions, right
+            # boundary): two instances with one leading monomial would derail the division.
+            # Decided before the atom's polynomial is built: most atoms have none.
+            mine = [k for k, syms in enumerate(defined) if syms and syms <= atom_syms]
+            if not mine:
+                return n
             try:
                 g = poly.element(n.args[0]) - poly.element(n.args[1])
             except _NotPolynomial:
-                return n
-            atom_syms = set(_syms(n))
-            # only instances built from this atom's own symbols (right SSA versions, right
-            # boundary): two instances with one leading monomial would derail the division
-            mine = [k for k, syms in enumerate(defined) if syms and syms <= atom_syms]
-            if not mine:
                 return n
             rem = g.rem([relations[k] for k in mine])
             if poly.mentions(rem, set().union(*(defined[k] for k in mine))):
