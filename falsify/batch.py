@@ -33,7 +33,7 @@ from typing import Any
 
 import numpy as np
 
-from certiloop.falsify.batch_ints import IntBatchProgram
+from certiloop.falsify.batch_ints import IntBatchProgram, has_ints
 from certiloop.falsify.batch_open import OpenValues, solve_affine
 from certiloop.falsify.batch_state import Bind, State
 from certiloop.falsify.choosers import REAL_RANGE
@@ -58,7 +58,7 @@ from certiloop.models.lang.programs import (
     Test,
     program_symbols,
 )
-from certiloop.models.lang.terms import BOOL, INT, REAL, Node, free_vars
+from certiloop.models.lang.terms import BOOL, REAL, Node, free_vars
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.wp import flow_solution
 
@@ -677,13 +677,6 @@ def _where(leaf: Leaf, bind: Bind) -> tuple:
 _COMPILED: dict[tuple, BatchProgram | IntBatchProgram | Unsupported] = {}
 
 
-def _has_ints(theorem: Theorem) -> bool:
-    """The model has integer symbols or arrays over integers (a Hoare triple's counters)."""
-    symbols = {**free_vars(theorem.assumptions), **program_symbols(theorem.program),
-               **free_vars(theorem.guarantee)}
-    return any(s.sort == INT or (s.sort.is_array and INT in s.sort.domain) for s in symbols.values())
-
-
 def compiled(theorem: Theorem, max_steps: int) -> BatchProgram | IntBatchProgram:
     """The theorem compiled once per process (raises Unsupported, also from the cache): by the
     real-valued batch, else, for a model over integers and arrays, by the integer batch."""
@@ -694,7 +687,7 @@ def compiled(theorem: Theorem, max_steps: int) -> BatchProgram | IntBatchProgram
             got = BatchProgram(theorem, max_steps)
         except Unsupported as exc:
             got = exc
-            if _has_ints(theorem):  # loop counters and array indices: the integer batch
+            if has_ints(theorem):  # loop counters and array indices: the integer batch
                 try:
                     got = IntBatchProgram(theorem, max_steps)
                 except Unsupported as why:

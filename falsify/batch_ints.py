@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from itertools import product
 from typing import Any
 
 import numpy as np
@@ -39,7 +38,17 @@ from certiloop.falsify.initial import initial_state
 from certiloop.falsify.interpreter import LOOP_BOUND, Interpreter, _outer_loop, index_sorts
 from certiloop.falsify.state import Rejected
 from certiloop.falsify.vectorise import Unsupported
-from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, program_symbols
+from certiloop.models.lang.programs import (
+    ODE,
+    Assign,
+    Choice,
+    Havoc,
+    Loop,
+    Program,
+    Seq,
+    Test,
+    program_symbols,
+)
 from certiloop.models.lang.terms import BOOL, INT, Node, free_vars
 from certiloop.models.lang.theorem import Theorem
 
@@ -80,6 +89,13 @@ class IntBatch:
 
     def candidates(self) -> list[int]:
         return [int(r) for r in np.flatnonzero(self.violated & self.accepted)]
+
+
+def has_ints(theorem: Theorem) -> bool:
+    """The model has integer symbols or arrays over integers (a Hoare triple's counters)."""
+    symbols = {**free_vars(theorem.assumptions), **program_symbols(theorem.program),
+               **free_vars(theorem.guarantee)}
+    return any(s.sort == INT or (s.sort.is_array and INT in s.sort.domain) for s in symbols.values())
 
 
 class IntBatchProgram:
@@ -190,7 +206,8 @@ class IntBatchProgram:
             raise Unsupported(f"`{n}` is not a cell of an array")
         for i in n.args[1:]:
             if not self._uniform(i):
-                raise Unsupported(f"the index `{i}` of `{n}` is not an integer scalar: it would differ per run")
+                raise Unsupported(f"the index `{i}` of `{n}` reads more than integer scalars: "
+                                  "it would differ per run")
             unset = [v for v in free_vars(i) if v not in known and v not in bound]
             if unset:
                 raise Unsupported(f"the index `{i}` reads `{unset[0]}` before it is surely assigned")
@@ -258,8 +275,8 @@ class IntBatchProgram:
         self.dropped = np.zeros(n, bool)
         constants = self._constants()
         accepted = np.full(n, constants is not None)
-        batch = IntBatch(n, constants or {}, list(self.arrays), accepted, np.zeros(n, bool), np.zeros(n, bool),
-                         self.events)
+        batch = IntBatch(n, constants or {}, list(self.arrays), accepted, np.zeros(n, bool),
+                         np.zeros(n, bool), self.events)
         if constants is None:
             return batch
         self.env: dict[str, Any] = dict(constants)
