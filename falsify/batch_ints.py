@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from certiloop.falsify.choosers import RandomChooser
+from certiloop.falsify.choosers import RandomChooser, Recording
 from certiloop.falsify.evaluate import Compiler, Table, _index, _int_bounds
 from certiloop.falsify.initial import initial_state
 from certiloop.falsify.interpreter import LOOP_BOUND, Interpreter, _outer_loop, index_sorts
@@ -107,8 +107,6 @@ class IntBatchProgram:
                         **free_vars(theorem.guarantee)}
         if index_sorts(theorem):
             raise Unsupported("an index sort next to integers")
-        if _outer_loop(theorem.program) is not None:
-            raise Unsupported("an outer control loop (the integer batch runs straight-line triples)")
         self.ints: set[str] = set()
         self.arrays: dict[str, bool] = {}  # array -> Boolean-valued?
         for name, sym in self.symbols.items():
@@ -120,6 +118,8 @@ class IntBatchProgram:
             else:
                 raise Unsupported(f"`{name}` is not an integer scalar or an array of integers or Booleans "
                                   "over integers")
+        if _outer_loop(theorem.program) is not None:
+            raise Unsupported("an outer control loop (the integer batch runs straight-line triples)")
         self._uni: dict[int, bool] = {}
         self.given = set(free_vars(theorem.assumptions))
         if not self._uniform(theorem.assumptions):
@@ -143,10 +143,12 @@ class IntBatchProgram:
             self._uni[id(n)] = got
         return got
 
-    def _need_uniform(self, n: Node, known: set[str], what: str) -> None:
+    def _need_uniform(self, n: Node, known: set[str], what: str, opens: bool = False) -> None:
+        """n is uniform and reads assigned integers; with `opens`, also havocked ones (`?k` in
+        `known`): a test that is a conjunction of comparisons reads all of them if it holds."""
         if not self._uniform(n):
             raise Unsupported(f"{what} `{n}` reads more than integer scalars")
-        unset = [v for v in free_vars(n) if v not in known]
+        unset = [v for v in free_vars(n) if v not in known and not (opens and f"?{v}" in known)]
         if unset:
             raise Unsupported(f"{what} `{n}` reads `{unset[0]}` before it is surely assigned")
 
@@ -168,25 +170,32 @@ class IntBatchProgram:
             t = p.target
             if t.op == "var" and t.payload in self.arrays:
                 return known
-            if t.op == "var":
-                raise Unsupported(f"havoc of the integer `{t}`: it would differ per run")
+            if t.op == "var":  # drawn once per batch, where a test first reads it (the same for all runs)
+                if branching:
+                    raise Unsupported(f"havoc of the integer `{t}` inside a choice: it would differ per run")
+                return (known - {t.payload}) | {f"?{t.payload}"}
             self._check_cell(t, known)
             return known
         if isinstance(p, Test):
-            cell = _literal(p.cond)
-            if cell is not None and self.arrays.get(cell.args[0].payload):
-                self._check_cell(cell, known)
-            else:
-                self._need_uniform(p.cond, known, "the test")
-            return known
+            if not self._uniform(p.cond):
+                self._check_cells_test(p.cond, known)
+                return known
+            # an open integer is read by a test outside any branching choice, which reads all of
+            # them when it holds (a conjunction of comparisons): drawn once for every run
+            opens = not branching and all(a.op == "cmp" for a in _conjuncts(p.cond))
+            self._need_uniform(p.cond, known, "the test", opens)
+            return known | {v for v in free_vars(p.cond) if f"?{v}" in known}
         if isinstance(p, Seq):
             for k, q in enumerate(p.parts):
                 if isinstance(q, Loop):
                     after = p.parts[k + 1] if k + 1 < len(p.parts) else None
                     if not isinstance(after, Test) or not self._uniform(after.cond):
                         raise Unsupported("a loop not followed by an exit test over integer scalars")
-                    self._need_uniform(after.cond, known, "the exit test")
-                    self._check(q.body, set(known), branching)
+                    # what every iteration may rely on: the body checked from its own end again
+                    entry = known & self._check(q.body, set(known), branching)
+                    entry &= self._check(q.body, set(entry), branching)
+                    self._need_uniform(after.cond, entry, "the exit test")
+                    known = entry
                 else:
                     known = self._check(q, known, branching)
             return known
@@ -199,6 +208,19 @@ class IntBatchProgram:
         if isinstance(p, ODE):
             raise Unsupported("an ODE")
         raise Unsupported(f"statement {p!r}")
+
+    def _check_cells_test(self, f: Node, known: set[str]) -> None:
+        """A test over Boolean cells (tried value by value, as the interpreter does) and
+        assigned integers."""
+        if self._uniform(f):
+            self._need_uniform(f, known, "the test")
+        elif f.op in ("and", "or", "not", "implies", "iff"):
+            for a in f.args:
+                self._check_cells_test(a, known)
+        elif f.op == "select" and self.arrays.get(f.args[0].payload):
+            self._check_cell(f, known)
+        else:
+            raise Unsupported(f"the test `{f}` reads more than integer scalars and Boolean cells")
 
     def _check_cell(self, n: Node, known: set[str], bound: frozenset = frozenset()) -> None:
         root = n.args[0]
@@ -280,10 +302,12 @@ class IntBatchProgram:
         if constants is None:
             return batch
         self.env: dict[str, Any] = dict(constants)
+        # integers a test reads open are drawn by the interpreter itself, once for the batch
+        self.uniform = self.interp.chooser = Recording(RandomChooser(int(self.rng.integers(0, 2**63 - 1))))
         done = self._exec(self.theorem.program, accepted.copy()) & ~self.dropped
-        holds = self._formula(self.theorem.guarantee, done, {})
         batch.completed = done
-        batch.violated = done & ~np.asarray(holds, bool)
+        if done.any():  # (with no run left, integers a blocked test left open are not read)
+            batch.violated = done & ~np.asarray(self._formula(self.theorem.guarantee, done, {}), bool)
         return batch
 
     def _constants(self) -> dict[str, Any] | None:
@@ -461,11 +485,19 @@ class IntBatchProgram:
         return rows
 
     def _test(self, cond: Node, rows: np.ndarray) -> np.ndarray:
-        """A uniform test, or one Boolean cell (interpreter.candidates: the drawn flag, then its
-        negation; the first that makes the test true is kept)."""
+        """A test. Over integers: the interpreter's own `_holds` on the batch's integers (an
+        open one drawn as it draws it; the decisions logged for every run). Over Boolean cells:
+        tried value by value (`_holds`); one cell (`?a[k]`, `?¬a[k]`) directly: the drawn flag,
+        then its negation, the first that makes the test true is kept."""
+        if self._uniform(cond):
+            mark = len(self.uniform.script)
+            holds = self.interp._holds(self.c(cond), self.env, cond)
+            for kind, value in self.uniform.script[mark:]:
+                self.events.append((kind, rows.copy(), np.full(self.n, value, np.int8)))
+            return rows if holds else np.zeros(self.n, bool)
         cell = _literal(cond)
-        if cell is None or not self.arrays.get(cell.args[0].payload):
-            return rows if self.c(cond)(self.env) else np.zeros(self.n, bool)
+        if cell is None:
+            return self._holds(cond, rows)
         want = 1.0 if cond.op == "select" else 0.0
         key = self._key(cell, {})
         vals, opened = self._cell(key)
@@ -474,6 +506,60 @@ class IntBatchProgram:
             self._log(need, self.rng.integers(0, 2, self.n))
             self._write(key, need, want)
         return rows & (self.cells[key][0] == want)
+
+    def _holds(self, cond: Node, rows: np.ndarray) -> np.ndarray:
+        """interpreter._holds, vectorised: evaluate; where a run reads an open cell, draw a flag
+        and try it, then its negation, each by evaluating again (a value that fails is removed)."""
+        need: dict[Cell, np.ndarray] = {}
+        stopped = np.zeros(self.n, bool)
+        truth = self._probe(cond, rows, need, stopped)
+        out = rows & ~stopped & np.asarray(truth, bool)
+        for key, hit in need.items():
+            first = self.rng.integers(0, 2, self.n)
+            self._log(hit, first)
+            pending = hit.copy()
+            for value in (first, 1 - first):
+                self._write(key, pending, value.astype(float))
+                ok = self._holds(cond, pending)
+                out |= ok
+                pending &= ~ok
+                self._write(key, pending, 0.0, open_=True)
+                if not pending.any():
+                    break
+        return out
+
+    def _probe(self, f: Node, live: np.ndarray, need: dict[Cell, np.ndarray], stopped: np.ndarray):
+        """f's truth as evaluate.Compiler's closures compute it (left to right, short-circuit);
+        a run that reads an open cell stops there (NeedValue): `stopped`, and `need[cell]`."""
+        if self._uniform(f):
+            return bool(self.c(f)(self.env))
+        op = f.op
+        if op == "select":
+            key = self._key(f, {})
+            vals, opened = self._cell(key)
+            hit = live & ~stopped & opened
+            if hit.any():
+                need[key] = need.get(key, np.zeros(self.n, bool)) | hit
+                stopped |= hit
+            return vals == 1
+        if op in ("and", "or"):
+            every = op == "and"
+            out: Any = every
+            cur = live & ~stopped
+            for a in f.args:
+                t = self._probe(a, cur, need, stopped)
+                cur &= ~stopped
+                out = np.where(cur, t, out)
+                cur &= t if every else ~np.asarray(t, bool)
+            return out
+        if op == "not":
+            return ~np.asarray(self._probe(f.args[0], live, need, stopped), bool)
+        if op == "implies":
+            a = np.asarray(self._probe(f.args[0], live, need, stopped), bool)
+            b = self._probe(f.args[1], live & ~stopped & a, need, stopped)
+            return ~a | b
+        a = np.asarray(self._probe(f.args[0], live, need, stopped), bool)  # iff: both sides read
+        return a == np.asarray(self._probe(f.args[1], live & ~stopped, need, stopped), bool)
 
     def _choice(self, p: Choice, rows: np.ndarray) -> np.ndarray:
         """Each run tries the alternatives from its drawn first one on, cyclically, up to one
@@ -511,7 +597,7 @@ class IntBatchProgram:
         body blocks would leave the loop with counters of its own: dropped."""
         active = rows.copy()
         for _ in range(LOOP_BOUND):
-            if self.c(exit_test)(self.env):
+            if self.interp._quietly(self.c(exit_test), self.env):
                 return active
             ok = self._exec(p.body, active)
             self.dropped |= active & ~ok
@@ -519,6 +605,10 @@ class IntBatchProgram:
             if not active.any():
                 return active
         return np.zeros(self.n, bool)  # the interpreter blocks after LOOP_BOUND iterations
+
+
+def _conjuncts(f: Node) -> list[Node]:
+    return [a for x in f.args for a in _conjuncts(x)] if f.op == "and" else [f]
 
 
 def _literal(cond: Node) -> Node | None:

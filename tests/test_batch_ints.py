@@ -15,15 +15,19 @@ from certiloop.falsify.choosers import Scripted
 from certiloop.falsify.interpreter import Interpreter
 from certiloop.falsify.vectorise import Unsupported
 from certiloop.models import library
-from certiloop.models.lang.programs import assign, for_range, havoc, if_, seq, test
-from certiloop.models.lang.terms import BOOL, INT, And, Array, ForAll, Implies, Ints
+from certiloop.models.lang.programs import assign, branch, choice, for_range, havoc, if_, seq, test
+from certiloop.models.lang.terms import BOOL, INT, And, Array, ForAll, Implies, Ints, Not, Or
 from certiloop.models.lang.theorem import Theorem
 
 BUILTDR = ["cfmpa.builtdr", "cfmpa.builtdr_skips_last_row", "cfmpa.builtdr_inclusive"]
+COMPILED = BUILTDR + ["cfmpa.property8", "cfmpa.property8_converse"]
+REFUTED = [name for name in COMPILED if library.get(name).expected == "refuted"]
+PROVED = [name for name in COMPILED if library.get(name).expected == "proved"]
 
 n, i, y = Ints("n i y")
 A = Array("A", INT, INT)
 b = Array("b", INT, BOOL)
+c = Array("c", INT, BOOL)
 
 
 def _counter(name: str = "t.counter") -> Theorem:
@@ -34,6 +38,20 @@ def _counter(name: str = "t.counter") -> Theorem:
     program = seq(havoc(A[0]), for_range(i, 0, n, body, ForAll(y, Implies(And(0 <= y, y < i), A[y] <= 8))))
     guarantee = ForAll(y, Implies(And(0 <= y, y < n), A[y] <= 8))
     return Theorem(name, n >= 0, program, guarantee, expected="refuted", constants=(n,))
+
+
+def _tries() -> Theorem:
+    """Tests over two Boolean cells that can fail after trying both values (the interpreter
+    backtracks, the batch must undo the attempt and log the same flags): refuted, A[y] = 2
+    where b[y] is false."""
+    body = choice(branch("both", test(And(b[i], Not(b[i]))), assign(A[i], 1)),
+                  branch("c", test(Or(c[i], b[i])), assign(A[i], 2)),
+                  branch("else", assign(A[i], 3)))
+    guarantee = ForAll(y, Implies(And(0 <= y, y < n), Or(A[y] == 3, A[y] == 2, A[y] == 1)))
+    refuted = ForAll(y, Implies(And(0 <= y, y < n), Implies(A[y] == 2, b[y])))
+    program = for_range(i, 0, n, body, True)
+    return (Theorem("t.tries", n >= 0, program, guarantee),
+            Theorem("t.tries_refuted", n >= 0, program, refuted, expected="refuted"))
 
 
 def _witness(theorem: Theorem, seeds: range, runs: int = 24) -> tuple[int, int, set]:
@@ -48,8 +66,10 @@ def _witness(theorem: Theorem, seeds: range, runs: int = 24) -> tuple[int, int, 
         batch = program.simulate(np.random.default_rng(seed), runs, 1)
         seen.add(tuple(sorted(batch.constants.items())))
         for r in np.flatnonzero(batch.completed):
-            run = interp.run(Scripted(batch.script(int(r))), batch.initial_state(int(r)))
+            script = Scripted(batch.script(int(r)))
+            run = interp.run(script, batch.initial_state(int(r)))
             assert (run.violated is not None) == bool(batch.violated[r]), (theorem.name, seed, int(r))
+            assert script.at == len(script.script)  # every logged decision was asked for
             replayed += 1
             violated += run.violated is not None
     return replayed, violated, seen
@@ -60,12 +80,15 @@ def test_the_builtdr_models_compile():
         assert isinstance(compiled(library.get(name), 3), IntBatchProgram)
 
 
-@pytest.mark.parametrize("name", BUILTDR)
+@pytest.mark.parametrize("name", COMPILED)
 def test_every_batch_run_replays_to_the_same_verdict(name):
     theorem = library.get(name)
     replayed, violated, seen = _witness(theorem, range(40))
-    assert replayed >= 40 * 24 * 0.9  # nothing blocks in builtDR: (nearly) every run is checked
-    assert any(all(v >= 1 for _, v in c) for c in seen)  # some batches fill a non-empty grid
+    if name in BUILTDR:
+        assert replayed >= 40 * 24 * 0.9  # nothing blocks in builtDR: (nearly) every run is checked
+    else:
+        assert replayed >= 24  # a batch whose grid is empty blocks at its range test
+    assert any(all(v >= 1 for _, v in consts) for consts in seen)  # some batches have a non-empty grid
     if theorem.expected == "refuted":
         assert violated > 0
     else:
@@ -77,7 +100,16 @@ def test_open_cells_and_havocs_replay_too():
     assert replayed > 500 and violated > 0
 
 
-@pytest.mark.parametrize("name", ["cfmpa.builtdr_skips_last_row"])
+def test_failed_tries_are_undone_and_replay():
+    safe, unsafe = _tries()
+    assert _witness(safe, range(30), runs=40)[1] == 0
+    replayed, violated, _ = _witness(unsafe, range(30), runs=40)
+    assert replayed > 500 and violated > 0
+    assert batch_search(unsafe, 4096, 0, 3, (1, 8)).check
+    assert batch_search(safe, 4096, 0, 3, (1, 8)).run is None
+
+
+@pytest.mark.parametrize("name", REFUTED)
 def test_refuted_models_are_found_and_confirmed(name):
     theorem = library.get(name)
     got = batch_search(theorem, 4096, 0, 3, (1, 8))
@@ -92,7 +124,7 @@ def test_a_small_triple_with_drawn_cells_is_found():
     assert got.run is not None and got.check
 
 
-@pytest.mark.parametrize("name", ["cfmpa.builtdr", "cfmpa.builtdr_inclusive"])
+@pytest.mark.parametrize("name", PROVED)
 def test_proved_models_give_nothing(name):
     theorem = library.get(name)
     for seed in range(3):
@@ -125,7 +157,11 @@ def test_what_the_integer_batch_refuses_says_why():
     assert isinstance(compiled(good, 3), IntBatchProgram)
     k = Ints("k")[0]
     cases = {
-        "havoc of the integer": _variant(seq(havoc(k), for_range(i, 0, n, body, True))),
+        "havoc of the integer `k` inside a choice": _variant(for_range(i, 0, n, seq(
+            choice(branch("a", havoc(k)), branch("b", assign(A[i], 2))), body), True)),
+        "reads `k` before": _variant(seq(havoc(k), for_range(i, 0, n, if_(b[i], test(k >= 0), body), True))),
+        "test `k >= 0 | n >= 0` reads `k`": _variant(seq(havoc(k), test(Or(k >= 0, n >= 0)),
+                                                          assign(A[0], k))),
         "assigned inside a choice": _variant(for_range(i, 0, n, seq(if_(b[i], assign(k, 1), assign(k, 0)),
                                                                     body), True)),
         "would differ per run": _variant(for_range(i, 0, n, assign(A[A[i]], 1), True)),
