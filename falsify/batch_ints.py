@@ -456,7 +456,9 @@ class IntBatchProgram:
             return self._assign(p, rows)
         if isinstance(p, Havoc):
             t = p.target
-            if t.op == "var":  # a whole array: every cell open again
+            if t.op == "var" and t.payload in self.ints:  # open until a test reads it (`_test`)
+                self.env.pop(t.payload, None)
+            elif t.op == "var":  # a whole array: every cell open again
                 for key in [k for k in self.cells if k[0] == t.payload]:
                     self._write(key, rows, 0.0, open_=True)
             else:
@@ -493,7 +495,7 @@ class IntBatchProgram:
             mark = len(self.uniform.script)
             holds = self.interp._holds(self.c(cond), self.env, cond)
             for kind, value in self.uniform.script[mark:]:
-                self.events.append((kind, rows.copy(), np.full(self.n, value, np.int8)))
+                self.events.append((kind, rows.copy(), np.full(self.n, value, np.int64)))
             return rows if holds else np.zeros(self.n, bool)
         cell = _literal(cond)
         if cell is None:

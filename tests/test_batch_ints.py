@@ -100,6 +100,16 @@ def test_open_cells_and_havocs_replay_too():
     assert replayed > 500 and violated > 0
 
 
+def test_integers_havocked_in_a_loop_replay():
+    """k := * in every iteration, drawn where the range test reads it (the same for a batch)."""
+    k = Ints("k")[0]
+    body = seq(havoc(k), test(And(0 <= k, k < n)), assign(A[k], i))
+    theorem = Theorem("t.rehavoc", n >= 0, for_range(i, 0, n, body, True),
+                      ForAll(y, Implies(And(0 <= y, y < n), A[y] <= n - 2)), expected="refuted")
+    replayed, violated, _ = _witness(theorem, range(40), runs=16)
+    assert replayed > 40 and violated > 0
+
+
 def test_failed_tries_are_undone_and_replay():
     safe, unsafe = _tries()
     assert _witness(safe, range(30), runs=40)[1] == 0
