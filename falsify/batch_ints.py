@@ -5,23 +5,29 @@ whose control flow runs on integers (loop counters, array indices) instead runs 
 batches whose runs share the values of every integer scalar: the integer constants are
 drawn once per batch (by the interpreter's own `initial_state`, so they are drawn as a
 per-run search draws them), and a batch's integer control flow is then the same for all of
-its runs and stays plain Python values. Only array contents vary per run: an array is a
-dict from an index tuple to a column (values, open mask); a cell never written is open and
-gets a value on its first read, exactly as the interpreter chooses it (a Boolean cell read
-by a test: the drawn flag, then its negation, the first that makes the test true; a value
-read elsewhere: the drawn flag, or an integer in [-2, 8]). ∀/∃ over integers bounded by
-uniform values are enumerated as the interpreter enumerates them, short-circuiting run by
-run. Every decision is logged, so that `script(r)` replays run r in the interpreter.
+its runs and stays plain Python values. An integer the program havocs is drawn once per
+batch too, by the interpreter's own `_holds` where a test first reads it (`k := *; ?0 <= k
+< N`: in [0, N-1]), and that decision is logged for every run. Only array contents vary
+per run: an array is a dict from an index tuple to a column (values, open mask); a cell
+never written is open and gets a value on its first read, exactly as the interpreter
+chooses it — read by a test, the drawn flag, then its negation, the first that makes the
+test true, backtracking over several cells as `interpreter._holds` does; read as a value,
+the drawn flag, or an integer in [-2, 8]. A choice's alternative that blocks has its cell
+writes undone on its runs (a journal per attempt). ∀/∃ over integers bounded by uniform
+values are enumerated as the interpreter enumerates them, short-circuiting run by run.
+Every decision is logged, so that `script(r)` replays run r in the interpreter.
 
 What compiles (everything else raises `Unsupported`, and the model keeps the per-run
-search): integer scalars that are given by the assumptions or assigned before they are read,
-and only from integer scalars (so they stay uniform), never inside a choice whose runs may
-take different alternatives; arrays of integers or Booleans indexed by integer scalars;
-assumptions over integer scalars only; tests over integer scalars, or a single Boolean cell
-(`?a[k]`, `?¬a[k]`); loops followed by their exit test over integer scalars (`for_range`);
-choices; assignments and havocs of cells; no ODE, no reals, no outer control loop. A run
-that blocks inside a loop's body (the interpreter would leave the loop there, with its own
-counter) is dropped, never reported.
+search): integer scalars given by the assumptions, assigned from integer scalars, or
+havocked and then read first by a test that is a conjunction of comparisons — never
+assigned or havocked inside a choice whose runs may take different alternatives (they
+would differ per run); arrays of integers or Booleans indexed by integer scalars;
+assumptions over integer scalars only; tests over integer scalars and Boolean cells (not
+integer cells: the interpreter solves those from the test); loops followed by their exit
+test over integer scalars (`for_range`); choices; assignments and havocs of cells; no ODE,
+no reals, no index sorts, no outer control loop. A run that blocks inside a loop's body
+(the interpreter would leave the loop there, with counters of its own) is dropped, never
+reported.
 """
 
 from __future__ import annotations
