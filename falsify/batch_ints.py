@@ -369,7 +369,7 @@ class IntBatchProgram:
                 x = self.rng.integers(INT_DRAW[0], INT_DRAW[1] + 1, self.n)
             self._log(need, x)
             self._write(key, need, x.astype(float))
-        return self.cells[key][0]
+        return self.cells[key][0].copy()  # a value, not the cell: a later write must not change it
 
     # ------------------------------------------------------------------ evaluation
     def _term(self, n: Node, rows: np.ndarray, bind: dict[str, Any]):
