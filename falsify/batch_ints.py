@@ -142,7 +142,7 @@ class IntBatchProgram:
         the same for every run of a batch). Cached by identity: the theorem keeps its nodes."""
         got = self._uni.get(id(n))
         if got is None:
-            if n.op == "var":
+            if n.op in ("var", "const"):  # integral constants only: an index is always a whole number
                 got = n.sort == INT
             else:
                 got = n.op in UNIFORM_OPS and all(self._uniform(a) for a in n.args)
