@@ -13,9 +13,12 @@ batch is only a candidate: the search reports it after that replay (`batch_searc
 Compiled: real scalars, families of reals or Booleans over one index sort (the family's
 size fixed per batch: runs of another size go in another batch), symbols of that sort
 (`i := *; ?¬done(i)`: an element per run, tried in the interpreter's order), `foreach`
-loops, and ∀/∃ over the index sort in tests, assumptions and the guarantee. Anything else
-(integers, arrays, Boolean symbols, other quantifiers) raises `Unsupported` and the model
-keeps the per-run search. Runs that hit a non-finite value (1/0, overflow) are dropped,
+loops, and ∀/∃ over the index sort in tests, assumptions and the guarantee. A model over
+integers and arrays (a Hoare triple: loop counters, array indices) is compiled by the
+integer batch instead (`batch_ints.IntBatchProgram`: integer constants drawn per batch,
+array cells per run; see there for its fragment). Anything else (Boolean symbols, reals
+next to integers, other quantifiers, ...) raises `Unsupported` and the model keeps the
+per-run search. Runs that hit a non-finite value (1/0, overflow) are dropped,
 never reported; so are runs where the interpreter would backtrack over a finite choice (a
 Boolean or an element accepted, then the test fails), whose decisions the batch does not
 log.
@@ -30,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from certiloop.falsify.batch_ints import IntBatchProgram, has_ints
 from certiloop.falsify.batch_open import OpenValues, solve_affine
 from certiloop.falsify.batch_state import Bind, State
 from certiloop.falsify.choosers import REAL_RANGE
@@ -670,11 +674,12 @@ def _where(leaf: Leaf, bind: Bind) -> tuple:
     return (name, bind.get(index, index)) if index is not None else (name,)
 
 
-_COMPILED: dict[tuple, BatchProgram | Unsupported] = {}
+_COMPILED: dict[tuple, BatchProgram | IntBatchProgram | Unsupported] = {}
 
 
-def compiled(theorem: Theorem, max_steps: int) -> BatchProgram:
-    """The theorem compiled once per process (raises Unsupported, also from the cache)."""
+def compiled(theorem: Theorem, max_steps: int) -> BatchProgram | IntBatchProgram:
+    """The theorem compiled once per process (raises Unsupported, also from the cache): by the
+    real-valued batch, else, for a model over integers and arrays, by the integer batch."""
     key = (theorem.content_hash, max_steps)
     got = _COMPILED.get(key)
     if got is None:
@@ -682,6 +687,11 @@ def compiled(theorem: Theorem, max_steps: int) -> BatchProgram:
             got = BatchProgram(theorem, max_steps)
         except Unsupported as exc:
             got = exc
+            if has_ints(theorem):  # loop counters and array indices: the integer batch
+                try:
+                    got = IntBatchProgram(theorem, max_steps)
+                except Unsupported as why:
+                    got = why
         _COMPILED[key] = got
     if isinstance(got, Unsupported):
         raise got

@@ -8,7 +8,9 @@ arithmetic where the flows have closed forms, else with validated enclosures of 
 (`validated.py`), else in floating point (so named) with a violation deeper than the
 search's tolerance — the check every reported counterexample passes. A
 candidate that does not replay is dropped. A model with families runs each round's runs
-split over the family sizes of the search's range, one batch per size (`_split`).
+split over the family sizes of the search's range, one batch per size (`_split`); a
+Hoare triple over integers (`batch_ints.py`) splits them the same way over group slots,
+each batch with integer constants of its own.
 """
 
 from __future__ import annotations

@@ -1,8 +1,9 @@
 """Hypothesis-driven search for a run that violates a theorem's guarantee.
 
-A model the batch simulator compiles (reals, families over one index sort) is first run in vectorised
-batches seeded by the search's seed (`batch_search`): thousands of runs per second, a hit
-reported only after the interpreter replayed it. Hypothesis then searches as before.
+A model the batch simulator compiles (reals, families over one index sort; Hoare triples over
+integers and arrays, `batch_ints.py`) is first run in vectorised batches seeded by the
+search's seed (`batch_search`): thousands of runs per second, a hit reported only after
+the interpreter replayed it. Hypothesis then searches as before.
 
 Every example is one run of the interpreter whose decisions (initial values, family size,
 alternatives, open values, ODE durations, number of control steps) hypothesis draws. The
