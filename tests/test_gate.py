@@ -25,12 +25,29 @@ def test_warm_gate_reuses_verdicts_and_reports_the_same(tmp_path, capsys, monkey
     assert gate(tmp_path, "--json", str(tmp_path / "cold.json")) == 0
     calls = []
     monkeypatch.setattr(gate_module, "check_model", lambda *a: calls.append(a) or pytest.fail("re-proved"))
+    monkeypatch.setattr(gate_module, "_import_for_workers", lambda: pytest.fail("warm: imported"))
     assert gate(tmp_path, "--json", str(tmp_path / "warm.json")) == 0
     assert "3 from the cache" in capsys.readouterr().out
     cold, warm = (json.loads((tmp_path / f"{n}.json").read_text()) for n in ("cold", "warm"))
     assert [(e["model"], e["verdict"], e["passed"]) for e in cold] == \
         [(e["model"], e["verdict"], e["passed"]) for e in warm]
     assert all(e["cached"] for e in warm)
+
+
+def test_a_cold_gate_imports_the_workers_modules_before_forking_them(monkeypatch):
+    """Forked workers inherit what the main process imported: the falsifier's modules are
+    imported before the prover (and its worker pool) starts, and all of them exist."""
+    events = []
+    real = gate_module._import_for_workers
+    monkeypatch.setattr(gate_module, "_import_for_workers", lambda: events.append("import") or real())
+
+    def start_prover():
+        events.append("start")
+        raise KeyboardInterrupt  # stop before any work
+
+    with pytest.raises(KeyboardInterrupt):
+        gate_module.run_gate([library.get("sbs.ctrl1")], start_prover, 1000, gate_module.GateOptions())
+    assert events == ["import", "start"]
 
 
 def test_corrupted_or_foreign_cache_entries_are_ignored(tmp_path):

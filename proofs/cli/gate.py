@@ -11,6 +11,7 @@ timeout, a solver give-up) never passes.
 
 from __future__ import annotations
 
+import importlib
 import time
 from concurrent.futures import Future
 from dataclasses import dataclass, field
@@ -171,6 +172,8 @@ def run_gate(theorems: list[Theorem], start_prover: Callable[[], Prover], rlimit
     keys = [cache.key("gate", f"{t.canonical}\n{setting}") if cache else None for t in theorems]
     hits = [cache.get(key) if cache else None for key in keys]
     todo = [i for i, hit in enumerate(hits) if hit is None]
+    if todo:
+        _import_for_workers()
     prover = start_prover() if todo else None
     # the next models' falsifiers are queued before this model's obligations, so the workers
     # always have one to run while the proof waits on its last obligations
@@ -194,6 +197,19 @@ def run_gate(theorems: list[Theorem], start_prover: Callable[[], Prover], rlimit
         if on_model:
             on_model(entry)
     return entries
+
+
+# What the gate's workers import lazily (the falsifier, its search and replay, scipy's root
+# finder): imported here once, before the workers are forked, they inherit it rather than
+# each import a copy (22-model gate: 66 -> 62 s CPU, 37 -> 35 s wall)
+WORKER_MODULES = ("certiloop.falsify.search", "certiloop.falsify.batch_search", "certiloop.falsify.replay",
+                  "certiloop.proofs.refute", "certiloop.proofs.refute.witness", "hypothesis",
+                  "hypothesis.strategies", "hypothesis.database", "scipy.optimize", "scipy.integrate")
+
+
+def _import_for_workers() -> None:
+    for name in WORKER_MODULES:
+        importlib.import_module(name)
 
 
 def _kernel_check(theorem: Theorem) -> str | None:
