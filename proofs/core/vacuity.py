@@ -347,7 +347,11 @@ def _linear_slope(x: Node, body: Node) -> tuple[Node, Node] | None:
 
 
 def _has_denominator(e) -> bool:
-    """A denominator that is not a constant (1/2 is fine; 1/x would need x ≠ 0)."""
+    """A denominator that is not a constant (1/2 is fine; 1/x would need x ≠ 0). Without a
+    negative power of a non-constant there is none, and `together` (a third of building
+    the vacuity obligations) is not needed to say so."""
+    if not any(p.is_Pow and p.exp.is_negative and not p.base.is_number for p in sympy.preorder_traversal(e)):
+        return False
     return not sympy.fraction(sympy.together(e))[1].is_number
 
 
