@@ -383,7 +383,7 @@ def test_ctrl_c_during_prove_keeps_the_finished_models_json(tmp_path):
 def test_falsify_keeps_hypothesis_files_under_certiloop(tmp_path):
     # a model outside the batch phase's fragment, so that hypothesis (and its database) runs
     proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", "falsify",
-                           "cfmpa.builtdr_skips_last_row", "--max-examples", "20"], cwd=tmp_path,
+                           "cfmpa.early_arrival", "--max-examples", "20"], cwd=tmp_path,
                           capture_output=True, text=True, timeout=120,
                           env={k: v for k, v in os.environ.items() if k != "HYPOTHESIS_STORAGE_DIRECTORY"})
     assert proc.returncode == 1, proc.stderr
