@@ -18,7 +18,8 @@ from certiloop.models import (
     Reals,
     dot,
 )
-from certiloop.models.lang.terms import free_vars, substitute
+from certiloop.models.lang import terms
+from certiloop.models.lang.terms import NodeMemo, free_vars, substitute, substitute_shared
 
 x, y, z = Reals("x y z")
 
@@ -83,6 +84,50 @@ def test_substitution_avoids_capture():
 def test_free_vars_respect_binders():
     f = And(Exists(y, x < y), z > 0)
     assert set(free_vars(f)) == {"x", "z"}
+
+
+def test_free_vars_are_remembered_but_each_caller_gets_its_own_dict():
+    f = And(x < y, ForAll(z, z > x))
+    first = free_vars(f)
+    first["w"] = z  # a caller adding to its result must not change the next caller's
+    assert list(free_vars(f)) == ["x", "y"]
+    assert set(free_vars(f.args[1], frozenset({"x"}))) == set()  # a bound set is never cached
+
+
+def test_substitute_shared_agrees_with_substitute_and_is_bounded(monkeypatch):
+    monkeypatch.setattr(terms, "_SUBSTITUTED", {})
+    monkeypatch.setattr(terms, "SUBSTITUTED_KEPT", 3)
+    f = ForAll(y, Implies(x < y, y * y > z))
+    for env in ({"x": y + 1}, {"z": x * x}, {"x": z, "z": y}, {"x": y + 1}, {"y": x}):
+        assert substitute_shared(f, env).same(substitute(f, env))
+        assert len(terms._SUBSTITUTED) <= 3
+    # equal keys, different objects: the remembered result is the same term
+    again = substitute_shared(ForAll(y, Implies(x < y, y * y > z)), {"x": y + 1})
+    assert again.same(substitute(f, {"x": y + 1}))
+
+
+def _id_reused(memo: NodeMemo, build, keep: bool = True) -> bool:
+    """Remember a fresh node, drop every other reference to it, build more nodes: does one
+    of them get its id (and so, wrongly, its remembered value)?"""
+    node = build()
+    memo.put(node, "first")
+    if not keep:
+        memo._seen[id(node)] = (None, "first")  # what a memo that does not hold its nodes keeps
+    equal = build()
+    same_term_other_object = memo.get(equal)
+    del node
+    reused = any(memo.get(x * k) == "first" for k in range(200))
+    return reused or same_term_other_object is not None
+
+
+def test_node_memo_is_by_identity_and_keeps_its_nodes():
+    memo = NodeMemo(size=2)
+    b = x + y
+    assert not _id_reused(memo, lambda: x + y)
+    assert _id_reused(NodeMemo(), lambda: x + y, keep=False)  # the check can fail
+    memo.put(b, "b")
+    memo.put(y + z, "c")  # a third entry: the memo starts afresh
+    assert memo.get(b) is None
 
 
 def test_dot_checks_lengths():

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import itertools
 
-from certiloop.models.lang.terms import Node, Var, free_vars, substitute
+from certiloop.models.lang.terms import Node, Var, free_vars, substitute_shared
 from certiloop.proofs.core.abstraction import Instance
 
 MAX_INSTANCES = 16
@@ -54,7 +54,7 @@ def abbreviation_instances(abbrevs: dict[str, Node], formula: Node) -> list[Inst
         for combo in itertools.islice(combos, MAX_INSTANCES):
             env = dict(zip(names, combo))
             family = (name, tuple(env[n].payload for n in names if n not in params))
-            out.append(Instance(Var(f"{name}@abs{len(out)}"), substitute(definition, env),
+            out.append(Instance(Var(f"{name}@abs{len(out)}"), substitute_shared(definition, env),
                                 family, tuple(env[p] for p in params)))
     return out
 

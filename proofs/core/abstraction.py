@@ -26,6 +26,7 @@ from certiloop.models.lang.terms import (
     And,
     Implies,
     Node,
+    NodeMemo,
     Var,
     add,
     cmp,
@@ -35,6 +36,7 @@ from certiloop.models.lang.terms import (
     rebuild,
     substitute,
 )
+from certiloop.proofs.core.instantiate import has_quantifier
 
 
 @dataclass(frozen=True)
@@ -155,8 +157,19 @@ class _NotPolynomial(Exception):
     pass
 
 
+_SYMS = NodeMemo()
+
+
 def _syms(n: Node) -> dict[str, Node]:
-    """Atomic arithmetic subterms (symbols and array reads) by their text."""
+    """Atomic arithmetic subterms (symbols and array reads) by their text (remembered per
+    node: the atoms of a model's hypotheses recur in each of its obligations)."""
+    got = _SYMS.get(n)
+    if got is None:
+        got = _SYMS.put(n, _find_syms(n))
+    return dict(got)
+
+
+def _find_syms(n: Node) -> dict[str, Node]:
     out: dict[str, Node] = {}
 
     def walk(x: Node) -> None:
@@ -248,6 +261,8 @@ def _binds_an_abbreviated_symbol(n: Node, inst: list[Instance]) -> bool:
 
 
 def _binds(n: Node, watched: set[str]) -> bool:
+    if not has_quantifier(n):
+        return False
     if n.op in ("forall", "exists") and any(v.payload in watched for v in n.payload):
         return True
     return any(_binds(a, watched) for a in n.args)

@@ -20,16 +20,26 @@ from certiloop.models.lang.terms import (
     And,
     Implies,
     Node,
+    NodeMemo,
     Var,
     free_vars,
     substitute,
+    substitute_shared,
 )
 
 MAX_INSTANCES = 64
 
 
+_QUANTIFIED = NodeMemo()
+
+
 def has_quantifier(n: Node) -> bool:
-    return n.op in ("forall", "exists") or any(has_quantifier(a) for a in n.args)
+    if n.op in ("forall", "exists"):
+        return True
+    if not n.args:
+        return False
+    got = _QUANTIFIED.get(n)
+    return _QUANTIFIED.put(n, any(has_quantifier(a) for a in n.args)) if got is None else got
 
 
 class _Skolem:
@@ -118,7 +128,7 @@ def instantiate(formula: Node, wide: bool = False, keep_goal_exists: bool = Fals
         if any(not p for p in pools):
             continue  # nothing to instantiate with: dropping a hypothesis is a sound weakening
         for combo in itertools.islice(itertools.product(*pools), MAX_INSTANCES):
-            instance = substitute(body, {v.payload: t for v, t in zip(variables, combo)})
+            instance = substitute_shared(body, {v.payload: t for v, t in zip(variables, combo)})
             if not has_quantifier(instance):
                 out.append(instance)
     if has_quantifier(goal) and not keep_goal_exists:

@@ -22,6 +22,7 @@ from certiloop.models.lang.terms import (
     Iff,
     Implies,
     Node,
+    NodeMemo,
     Not,
     Var,
     cmp,
@@ -70,8 +71,17 @@ def eliminate_stores(f: Node) -> Node:
                Implies(Not(same), eliminate_stores(_replace(f, read, other))))
 
 
+_HAS = {"select": NodeMemo(), "store": NodeMemo()}
+
+
 def _has(n: Node, op: str) -> bool:
-    return n.op == op or any(_has(a, op) for a in n.args)
+    if n.op == op:
+        return True
+    if not n.args:
+        return False
+    memo = _HAS[op]
+    got = memo.get(n)
+    return memo.put(n, any(_has(a, op) for a in n.args)) if got is None else got
 
 
 def _lowered_sort(sort):
@@ -79,7 +89,21 @@ def _lowered_sort(sort):
     return REAL if sort not in (REAL, INT, BOOL) and not sort.is_array else sort
 
 
+_KEEPABLE = NodeMemo()  # outside any quantifier only: the common case
+
+
 def _quantifiers_keepable(n: Node, bound: frozenset[str]) -> bool:
+    if not n.args:
+        return True
+    if not bound:
+        got = _KEEPABLE.get(n)
+        if got is None:
+            got = _KEEPABLE.put(n, _keepable(n, bound))
+        return got
+    return _keepable(n, bound)
+
+
+def _keepable(n: Node, bound: frozenset[str]) -> bool:
     if n.op in ("forall", "exists"):
         if any(v.sort != REAL for v in n.payload):
             return False
@@ -124,23 +148,31 @@ def lower(formula: Node, reads_out: dict[str, tuple] | None = None) -> Node | No
     if reads_out is not None:
         reads_out.update({k: (r.args[0].payload, r.args[1:]) for k, r in reads.items()})
 
-    def to_real_index(n: Node) -> Node:
-        if n.op == "var" and not n.sort.is_array and n.sort not in (REAL, INT, BOOL):
-            return Var(n.payload, REAL)
-        if n.op == "select":
-            return mapping[read_name(n)]
-        if not n.args:
-            return n
-        return rebuild(n, tuple(to_real_index(a) for a in n.args))
-
     facts = []
     by_array: dict[str, list[Node]] = {}
     for r in reads.values():
         by_array.setdefault(r.args[0].payload, []).append(r)
     for group in by_array.values():
         for a, b in itertools.combinations(group, 2):
-            same_index = And(*(cmp("==", to_real_index(x), to_real_index(y))
+            same_index = And(*(cmp("==", _to_real_index(x), _to_real_index(y))
                                for x, y in zip(a.args[1:], b.args[1:])))
             facts.append(Implies(same_index, _eq(mapping[read_name(a)], mapping[read_name(b)])))
-    lowered = to_real_index(f)
+    lowered = _to_real_index(f)
     return Implies(And(*facts), lowered) if facts else lowered
+
+
+_LOWERED = NodeMemo()
+
+
+def _to_real_index(n: Node) -> Node:
+    """Reads as their symbols (`read_name`, the lowered sort), index-sort symbols as reals."""
+    if n.op == "var" and not n.sort.is_array and n.sort not in (REAL, INT, BOOL):
+        return Var(n.payload, REAL)
+    if n.op == "select":
+        return Var(read_name(n), _lowered_sort(n.sort))
+    if not n.args:
+        return n
+    got = _LOWERED.get(n)
+    if got is None:
+        got = _LOWERED.put(n, rebuild(n, tuple([_to_real_index(a) for a in n.args])))
+    return got
