@@ -34,7 +34,7 @@ from certiloop.models.lang.terms import (
     free_vars,
     mul,
     rebuild,
-    substitute,
+    substitute_shared,
 )
 from certiloop.proofs.core.instantiate import has_quantifier
 
@@ -70,7 +70,7 @@ def _renamed(a: Instance, b: Instance) -> bool:
     if not all(x.op == "var" and y.op == "var" for x, y in zip(a.indices, b.indices)):
         return False
     swap = {x.payload: y for x, y in zip(a.indices, b.indices)}
-    return substitute(a.definition, swap).same(b.definition)
+    return substitute_shared(a.definition, swap).same(b.definition)
 
 
 def fresh_instances(formula: Node, inst: list[Instance]) -> list[Instance]:
@@ -107,7 +107,7 @@ def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) 
     poly = _Polys(formula, inst)
     if poly.ring is None:
         return None
-    relations = [poly.element(i.symbol) - poly.element(i.definition) for i in inst]
+    relations: dict[int, object] = {}  # built when an atom first needs one: most atoms need none
     defined = [set(_syms(i.definition)) for i in inst]
     by_definition = {i.definition.key: i.symbol for i in inst}
     all_defined = set().union(*defined)
@@ -138,6 +138,9 @@ def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) 
                 g = poly.element(n.args[0]) - poly.element(n.args[1])
             except _NotPolynomial:
                 return n
+            for k in mine:
+                if k not in relations:
+                    relations[k] = poly.element(inst[k].symbol) - poly.element(inst[k].definition)
             rem = g.rem([relations[k] for k in mine])
             if poly.mentions(rem, set().union(*(defined[k] for k in mine))):
                 return n
