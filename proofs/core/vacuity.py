@@ -316,13 +316,12 @@ def _exists(variables: list[Node], body: Node, names: Names, kept: frozenset[str
     for x in own:
         if x.payload in stay:
             continue
-        fresh = names.fresh(x, x.sort, "witness")
-        if x.payload in inputs:
-            body = substitute(body, {x.payload: fresh})
-        else:
-            a, equation = (substitute(part, renamed) for part in slopes[x.payload])
-            body = substitute(And(cmp("!=", a, 0), Implies(equation, body)), {x.payload: fresh})
-        renamed[x.payload] = fresh
+        if x.payload not in inputs:
+            a, equation = slopes[x.payload]
+            body = And(cmp("!=", a, 0), Implies(equation, body))
+        renamed[x.payload] = names.fresh(x, x.sort, "witness")
+    # all at once (the fresh names are new, so renaming in one pass or one by one agrees)
+    body = substitute(body, renamed)
     left = tuple(x for x in own if x.payload in stay)
     return Exists(left, body) if left else body
 
