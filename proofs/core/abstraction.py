@@ -111,7 +111,14 @@ def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) 
     defined = [set(_syms(i.definition)) for i in inst]
     by_definition = {i.definition.key: i.symbol for i in inst}
     all_defined = set().union(*defined)
+    # a definition can occur in an atom only if the atom has all its free symbols (no
+    # quantifier binds them here): most atoms have no such definition and are not walked
+    needs = [frozenset(free_vars(i.definition)) for i in inst]
     changed = [False]
+
+    def may_occur(n: Node) -> bool:
+        names = free_vars(n).keys()
+        return any(need <= names for need in needs)
 
     def replace(n: Node) -> Node:
         hit = by_definition.get(n.key)
@@ -122,7 +129,7 @@ def abstract(formula: Node, inst: list[Instance], extra_facts: list[Node] = ()) 
     def rewrite(n: Node) -> Node:
         if n.op == "cmp" and n.args[0].sort.is_numeric:
             # the definitions usually occur verbatim (substituted from the same template)
-            direct = replace(n)
+            direct = replace(n) if may_occur(n) else n
             if not direct.same(n) and not (set(_syms(direct)) & all_defined):
                 changed[0] = True
                 return direct
