@@ -56,6 +56,38 @@ OPEN_LOOP_ITERATIONS = 3  # at most this many iterations of a loop with no exit 
 _NOT_BUILT = object()
 
 
+@dataclass
+class _Model:
+    """What every interpreter of one theorem (and number type) computes alike: closures, the
+    guarantee's parts, symbols, flows. All of it is a function of the (immutable) theorem,
+    so interpreters share it; the search's exact replays build one interpreter each."""
+
+    theorem: Theorem  # kept, so that its id is not reused while cached
+    compiler: Compiler
+    parts: list
+    index_sorts: list
+    symbols: dict
+    flows: dict = field(default_factory=dict)
+    leaf_cache: dict = field(default_factory=dict)
+
+
+_MODELS: dict[tuple[int, bool], _Model] = {}
+MODELS_KEPT = 64
+
+
+def _model(theorem: Theorem, exact: bool) -> _Model:
+    got = _MODELS.get((id(theorem), exact))
+    if got is None or got.theorem is not theorem:
+        if len(_MODELS) >= MODELS_KEPT:
+            _MODELS.clear()
+        c = Compiler(exact)
+        symbols = {**free_vars(theorem.assumptions), **program_symbols(theorem.program),
+                   **free_vars(theorem.guarantee)}
+        got = _MODELS[(id(theorem), exact)] = _Model(theorem, c, _parts(theorem.guarantee, c),
+                                                      index_sorts(theorem), symbols)
+    return got
+
+
 class _Violated(Exception):
     pass
 
@@ -107,16 +139,17 @@ class Interpreter:
     def __init__(self, theorem: Theorem, exact: bool = False, max_steps: int = 3,
                  families: tuple[int, int] = (1, 8), horizon: float = HORIZON) -> None:
         self.theorem, self.max_steps, self.families, self.horizon = theorem, max_steps, families, horizon
-        self.c = Compiler(exact)
+        model = _model(theorem, exact)
+        self.c = model.compiler
         self.exact = exact
         self.top = _outer_loop(theorem.program)
         self.guarantee = self.c(theorem.guarantee)
-        self.parts = _parts(theorem.guarantee, self.c)
-        self.index_sorts = index_sorts(theorem)
-        self.symbols = {**free_vars(theorem.assumptions), **program_symbols(theorem.program),
-                        **free_vars(theorem.guarantee)}
-        self._flows: dict[int, Flow] = {}
+        self.parts = model.parts
+        self.index_sorts = model.index_sorts
+        self.symbols = model.symbols
+        self._flows: dict[int, Flow] = model.flows
         self._many: Any = _NOT_BUILT
+        self.leaf_cache = model.leaf_cache  # initial._leaves: what an instance of an assumption atom reads
 
     # ------------------------------------------------------------------ a run
     def run(self, chooser: Chooser, initial: dict[str, Any] | None = None,

@@ -11,7 +11,9 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 import certiloop.falsify.flows as flows
-from certiloop.falsify.choosers import RandomChooser, Recording
+import certiloop.falsify.initial as initial
+import certiloop.falsify.interpreter as interpreter
+from certiloop.falsify.choosers import RandomChooser, Recording, Scripted
 from certiloop.falsify.evaluate import Blocked, Compiler, Table
 from certiloop.falsify.flows import Flow, _last_inside, _last_inside_fast, _Undecided
 from certiloop.falsify.interpreter import Interpreter, Rejected
@@ -168,6 +170,7 @@ def test_runs_are_the_same_with_and_without_the_fast_paths(name, monkeypatch):
     fast = runs()
     monkeypatch.setattr(Flow, "vector", property(lambda self: None))
     monkeypatch.setattr(Interpreter, "_many_margins", lambda self: None)
+    monkeypatch.setattr(initial, "_bound_indices", lambda atom, env: False)  # nothing remembered
     slow = runs()
     assert sum(isinstance(x, tuple) for x in fast) >= 10
     for a, b in zip(fast, slow, strict=True):
@@ -191,3 +194,40 @@ def test_the_compiler_remembers_nodes_by_identity_within_a_bound(monkeypatch):
     assert len(c._by_id) <= 2
     assert c(h * 3)({"h": 2.0}) == 6.0
     assert math.isfinite(c(a)({"h": 1.0, "v": 2.0}))
+
+
+@pytest.mark.parametrize("name", ["sbs.ctrl2", "sbs.ctrl2_dynamic", "textbook.train"])
+def test_interpreters_of_one_theorem_share_its_model_and_replay_alike(name, monkeypatch):
+    th = library.get(name)
+    first, second = Interpreter(th, exact=True), Interpreter(th, exact=True)
+    assert first.c is second.c and first._flows is second._flows and Interpreter(th).c is not first.c
+    scripts = []
+    floats = Interpreter(th)
+    for seed in range(20):
+        rec = Recording(RandomChooser(seed))
+        try:
+            floats.run(rec)
+        except (Rejected, Blocked, ArithmeticError):
+            continue
+        scripts.append(rec.script)
+    assert len(scripts) >= 5
+
+    def replays():
+        out = []
+        for script in scripts:  # a new exact interpreter per replay, as the search's confirm does
+            try:
+                run = Interpreter(th, exact=True).run(Scripted(script))
+                out.append([(c.time, c.state, c.margins) for c in run.checkpoints])
+            except Exception as exc:  # noqa: BLE001 - compared below, whatever it is
+                out.append(type(exc).__name__)
+        return out
+
+    shared = replays()
+    cached = interpreter._model
+
+    def fresh(t, exact):  # every interpreter computes its own closures, parts, symbols and flows
+        interpreter._MODELS.clear()
+        return cached(t, exact)
+    monkeypatch.setattr(interpreter, "_model", fresh)
+    monkeypatch.setattr(initial, "_bound_indices", lambda atom, env: False)
+    assert replays() == shared
