@@ -25,6 +25,7 @@ MAX_RHS_CALLS = 20_000  # a stiff flow (a gain of 1e300) is given up, not follow
 ESCAPE = 1e9  # a flow is followed until a value reaches this (beyond any model's scale)
 RTOL, ATOL = 1e-7, 1e-9  # found runs are re-checked, so search favours speed
 NEAR = 1e-9  # a vectorised grid margin this close to 0 (relative) is decided by the scalar path
+PROBE = 8  # grid points tried one by one before the rest of the grid is evaluated at once
 
 # The watch over many samples at once: (state at the start, times, the flow's variables at those
 # times as arrays) -> (labels, margins: one row per label, one column per time), or None when it
@@ -286,32 +287,39 @@ class _Undecided(Exception):
 
 
 def _last_inside_fast(grid, g, start: float, end: float, depth: int) -> float:
-    """`_last_inside` with the margins on the grid computed at once by `grid` (numpy). The
-    decisions are the scalar path's: every grid point whose vectorised margin is within NEAR
-    of 0, the first point found outside, the point before it and the root between them are
-    evaluated by the scalar g, and any disagreement raises `_Undecided`. So the result is the
-    scalar path's, unless the two evaluations differ by more than NEAR somewhere."""
+    """`_last_inside` with the margins on most of the grid computed at once by `grid` (numpy).
+    The first PROBE points are the scalar path's own (a flow often leaves its domain within
+    them, and numpy costs more than a few scalar margins); beyond them every grid point whose
+    vectorised margin is within NEAR of 0, the first point found outside, the point before
+    it and the root between them are evaluated by the scalar g, and any disagreement raises
+    `_Undecided`. So the result is the scalar path's, unless the two evaluations differ by
+    more than NEAR somewhere."""
     times = np.linspace(start, end, GRID)
-    with np.errstate(all="ignore"):
-        values = np.asarray(grid(times[1:]), float)
-    if values.shape != (GRID - 1,) or not np.all(np.isfinite(values)):
-        raise _Undecided
-    band = NEAR * (1.0 + float(np.max(np.abs(values))))
-    first = None
-    for k in np.flatnonzero(values < band):  # in grid order: the candidates for the first exit
-        t = float(times[k + 1])
-        if values[k] > -band:  # near 0: the scalar margin decides this point
-            if g(t) < 0:
-                first = k
-                break
-            continue
-        if not g(t) < 0:
+    first = None  # the index in `times` of the first point outside
+    for k in range(1, PROBE + 1):
+        if g(float(times[k])) < 0:
+            first = k
+            break
+    if first is None:
+        with np.errstate(all="ignore"):
+            values = np.asarray(grid(times[PROBE + 1:]), float)
+        if values.shape != (GRID - PROBE - 1,) or not np.all(np.isfinite(values)):
             raise _Undecided
-        first = k
-        break
+        band = NEAR * (1.0 + float(np.max(np.abs(values))))
+        for k in np.flatnonzero(values < band):  # in grid order: the candidates for the first exit
+            t = float(times[PROBE + 1 + k])
+            if values[k] > -band:  # near 0: the scalar margin decides this point
+                if g(t) < 0:
+                    first = PROBE + 1 + int(k)
+                    break
+                continue
+            if not g(t) < 0:
+                raise _Undecided
+            first = PROBE + 1 + int(k)
+            break
     if first is None:
         return end
-    t, previous = float(times[first + 1]), (start if first == 0 else float(times[first]))
+    t, previous = float(times[first]), (start if first == 1 else float(times[first - 1]))
     if g(previous) > 0:
         try:
             from scipy.optimize import brentq
