@@ -87,12 +87,26 @@ def test_the_fast_grid_defers_to_the_scalar_margin_where_they_disagree():
     assert _last_inside_fast(near, g_scalar, 0.0, 2.0, 0) == pytest.approx(1.0, abs=1e-12)
 
 
+def test_a_late_exit_is_located_on_the_vectorised_grid(monkeypatch):
+    flow = Flow(FLOWS["fall"], Compiler())
+    state = {"h": 40.0, "v": 0.0, "g": 1.0}  # h = 40 - t²/2 leaves h >= 0 at t = sqrt(80): late
+    called = []
+    margins = flows._VectorFlow.margins
+
+    def spy(self, env, times):
+        called.append(times)
+        return margins(self, env, times)
+    monkeypatch.setattr(flows._VectorFlow, "margins", spy)
+    fast = flow._exit_time(state, HORIZON, flow.vector.env(state))
+    assert len(called) == 1 and fast == _witness(flow, state) == pytest.approx(math.sqrt(80), abs=1e-9)
+
+
 def test_an_undecided_grid_falls_back_to_the_scalar_path(monkeypatch):
     flow = Flow(FLOWS["fall"], Compiler())
-    state = {"h": 2.0, "v": 0.0, "g": 1.0}
+    state = {"h": 40.0, "v": 0.0, "g": 1.0}
     monkeypatch.setattr(flows._VectorFlow, "margins", lambda self, env, times: np.full(times.shape, np.nan))
     fast = flow._exit_time(state, HORIZON, flow.vector.env(state))
-    assert fast == _witness(flow, state) == pytest.approx(2.0)
+    assert fast == _witness(flow, state) == pytest.approx(math.sqrt(80))
 
 
 def test_unsupported_constructs_keep_the_scalar_path(monkeypatch):
