@@ -77,18 +77,31 @@ def universe(state: dict[str, Any], sort) -> range:
         raise ModelError(f"no size was chosen for the index sort {sort.name}") from None
 
 
+BY_ID_LIMIT = 100_000  # nodes remembered by identity per compiler
+
+
 class Compiler:
     """Closures for one number type: float for search, Fraction for exact replay."""
 
     def __init__(self, exact: bool = False) -> None:
         self.exact = exact
         self._cache: dict[tuple, Fn] = {}
+        # by the node object too: a key is a nested tuple whose hash Python recomputes on every
+        # lookup (the interpreter asks for the same nodes' closures thousands of times a run).
+        # The node is kept with its closure, so that its id is not reused while cached.
+        self._by_id: dict[int, tuple[Node, Fn]] = {}
 
     def __call__(self, n: Node) -> Fn:
+        got = self._by_id.get(id(n))
+        if got is not None and got[0] is n:
+            return got[1]
         fn = self._cache.get(n.key)
         if fn is None:
             fn = self._compile(n)
             self._cache[n.key] = fn
+        if len(self._by_id) >= BY_ID_LIMIT:  # nodes built on the fly: the keys still dedupe them
+            self._by_id.clear()
+        self._by_id[id(n)] = (n, fn)
         return fn
 
     def number(self, x: Any) -> Any:

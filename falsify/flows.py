@@ -14,7 +14,9 @@ from typing import Any, Callable
 import numpy as np
 
 from certiloop.falsify.evaluate import Blocked, Compiler, margin
+from certiloop.falsify.vectorise import Unsupported, VCompiler
 from certiloop.models.lang.programs import ODE
+from certiloop.models.lang.terms import Node, free_vars
 from certiloop.proofs.core.wp import flow_solution
 
 GRID = 64  # samples when locating where a closed-form flow leaves its domain
@@ -22,6 +24,13 @@ WATCH_SAMPLES = 33  # samples along a flow for the guarantee's margins (plots, t
 MAX_RHS_CALLS = 20_000  # a stiff flow (a gain of 1e300) is given up, not followed for hours
 ESCAPE = 1e9  # a flow is followed until a value reaches this (beyond any model's scale)
 RTOL, ATOL = 1e-7, 1e-9  # found runs are re-checked, so search favours speed
+NEAR = 1e-9  # a vectorised grid margin this close to 0 (relative) is decided by the scalar path
+PROBE = 8  # grid points tried one by one before the rest of the grid is evaluated at once
+
+# The watch over many samples at once: (state at the start, times, the flow's variables at those
+# times as arrays) -> (labels, margins: one row per label, one column per time), or None when it
+# cannot decide (the scalar watch is used then)
+ManyWatch = Callable[[dict, np.ndarray, dict], "tuple[list[str], np.ndarray] | None"]
 
 
 def _remembered(trajectory: Callable[[float], dict], longest: float) -> tuple[Callable[[float], dict], float]:
@@ -55,6 +64,23 @@ class Flow:
         self.solution = None if solution is None else {n: compiler(x) for n, x in solution.items()}
         self.symbolic = solution
         self._along = None
+        # the components of the closed form the domain reads: its scalar margin along the flow
+        # computes only these (`_margin_along`)
+        reads = free_vars(ode.domain)
+        self._domain_parts = [] if solution is None else [
+            (n, fn) for n, fn in self.solution.items() if n in reads]
+        self._vector = _NOT_YET
+
+    @property
+    def vector(self) -> "_VectorFlow | None":
+        """The closed form and the domain's margin compiled to numpy (None: no closed form, or
+        a construct `vectorise` does not compile); built on first use."""
+        if self._vector is _NOT_YET:
+            try:
+                self._vector = None if self.symbolic is None or self.exact else _VectorFlow(self)
+            except Unsupported:
+                self._vector = None
+        return self._vector
 
     # ---- the state after following the flow for tau
     def at(self, state: dict[str, Any], tau) -> dict[str, Any]:
@@ -68,24 +94,48 @@ class Flow:
         return out
 
     def run(self, state: dict[str, Any], duration: Callable[[Callable[[float], float]], float],
-            horizon: float, watch: Callable[[dict], float] | None = None):
+            horizon: float, watch: Callable[[dict], float] | None = None, many: ManyWatch | None = None):
         """Follow the flow for a duration chosen through `duration`; returns the end state,
-        the duration and sampled (tau, state) pairs along the way."""
+        the duration and sampled (tau, state, guarantee margins or None) triples along the way.
+        `many` evaluates the watch on all samples at once where it can (margins given then);
+        the end state and the duration's checks never come from it."""
         if not self.domain_holds(state):
             raise Blocked("the evolution domain does not hold at the start")
         if self.exact:
             tau = Fraction(duration(lambda u: 0.0))
             if tau == 0 and self.symbolic is None:  # no time passes: exact without a closed form
-                return dict(state), tau, [(0, state)]
+                return dict(state), tau, [(0, state, None)]
             self._check_exact(state, tau)
-            return self.at(state, tau), tau, [(0, state), (tau, self.at(state, tau))]
-        trajectory, longest = _remembered(*self._trajectory(state, horizon))
+            return self.at(state, tau), tau, [(0, state, None), (tau, self.at(state, tau), None)]
+        trajectory, longest, values_at = self._trajectory(state, horizon)
+        trajectory, longest = _remembered(trajectory, longest)
+        seen: dict[float, tuple[np.ndarray, dict, list[str], np.ndarray]] = {}
+
+        def watched(end: float):
+            """The samples up to `end` with their margins, all at once (None: not possible)."""
+            if many is None or values_at is None:
+                return None
+            got = seen.get(end)
+            if got is None:
+                times = np.linspace(0.0, end, WATCH_SAMPLES)
+                values = values_at(times)
+                out = None if values is None else many(state, times, values)
+                if out is None:
+                    return None
+                got = seen[end] = (times, values, *out)
+            return got
 
         def settle(u: float) -> float:
             end = u * longest
             if watch is None or end <= 0:
                 return end
             # stopping the flow is always allowed: stop where the guarantee is worst
+            fast = watched(end)
+            if fast is not None:
+                times, _values, labels, table = fast
+                worst_of = table.min(axis=0) if labels else np.ones(len(times))
+                worst = int(np.argmin(worst_of))  # the first of equal minima, as below
+                return float(times[worst]) if worst_of[worst] < 0 else end
             times = [float(t) for t in np.linspace(0.0, end, WATCH_SAMPLES)]
             values = [watch(trajectory(t)) for t in times]
             worst = min(range(len(times)), key=values.__getitem__)
@@ -94,19 +144,55 @@ class Flow:
         tau = float(duration(settle))
         if tau < 0 or tau > longest * (1 + 1e-12) + 1e-15:
             raise Blocked(f"ODE duration {tau} outside [0, {longest}]")
-        samples = [(float(t), trajectory(float(t))) for t in np.linspace(0.0, tau, WATCH_SAMPLES)]
+        fast = watched(tau) if tau > 0 else None
+        if fast is not None:  # samples for plots: the vectorised values and margins
+            times, values, labels, table = fast
+            samples = []
+            for k, t in enumerate(times):
+                st = dict(state)
+                for name, column in values.items():
+                    st[name] = float(column[k])
+                samples.append((float(t), st, {label: float(row[k]) for label, row in zip(labels, table)}))
+        else:
+            samples = [(float(t), trajectory(float(t)), None) for t in np.linspace(0.0, tau, WATCH_SAMPLES)]
         return trajectory(tau), tau, samples
 
-    def _trajectory(self, state, horizon: float) -> tuple[Callable[[float], dict], float]:
-        """(tau -> state, longest duration within the domain and the horizon)."""
+    def _trajectory(self, state, horizon: float):
+        """(tau -> state, longest duration within the domain and the horizon, times -> the
+        flow's variables at those times as arrays, or None where that is not available)."""
         if self.solution is not None:
             traj = lambda t: self.at(state, t)  # noqa: E731
-            return traj, self._exit_time(traj, horizon)
+            vector = self.vector
+            env = None if vector is None else vector.env(state)
+            longest = self._exit_time(state, horizon, env)
+            if env is None:
+                return traj, longest, None
+            return traj, longest, lambda times: vector.values(env, times)
         return self._integrate(state, horizon)
 
-    def _exit_time(self, traj, horizon: float) -> float:
-        g = lambda t: self.domain(traj(t))  # noqa: E731
+    def _exit_time(self, state, horizon: float, env: dict | None = None) -> float:
+        g = self._margin_along(state)
+        if env is not None:  # the grid's margins at once; the scalar g decides wherever it matters
+            grid = lambda times: self.vector.margins(env, times)  # noqa: E731
+            try:
+                return _last_inside_fast(grid, g, 0.0, horizon, depth=0)
+            except _Undecided:
+                pass
         return _last_inside(g, 0.0, horizon, depth=0)
+
+    def _margin_along(self, state) -> Callable[[float], float]:
+        """tau -> the domain's margin after following the flow for tau from `state`: the same
+        closures on the same values as `self.domain(self.at(state, tau))`, computing only the
+        components of the closed form the domain reads (and no new dict per tau)."""
+        env, out = dict(state), dict(state)
+        parts, domain, s_name = self._domain_parts, self.domain, self.s_name
+
+        def g(tau: float) -> float:
+            env[s_name] = tau
+            for name, fn in parts:
+                out[name] = fn(env)
+            return domain(out)
+        return g
 
     def _integrate(self, state, horizon: float):
         names, rhs = self.names, self.rhs
@@ -150,7 +236,10 @@ class Flow:
             for name, value in zip(names, sol.sol(min(t, longest))):
                 out[name] = float(value)
             return out
-        return traj, longest
+
+        def values_at(times: np.ndarray) -> dict[str, np.ndarray]:
+            return dict(zip(names, np.asarray(sol.sol(np.minimum(times, longest)), float)))
+        return traj, longest, values_at
 
     def _check_exact(self, state, tau) -> None:
         """The domain must hold along the whole flow, decided exactly."""
@@ -190,6 +279,123 @@ def _last_inside(g, start: float, end: float, depth: int) -> float:
             return previous
         previous = t
     return end
+
+
+class _Undecided(Exception):
+    """The vectorised grid and the scalar margin disagree (or the grid is not finite): the
+    scalar `_last_inside` decides."""
+
+
+def _last_inside_fast(grid, g, start: float, end: float, depth: int) -> float:
+    """`_last_inside` with the margins on most of the grid computed at once by `grid` (numpy).
+    The first PROBE points are the scalar path's own (a flow often leaves its domain within
+    them, and numpy costs more than a few scalar margins); beyond them every grid point whose
+    vectorised margin is within NEAR of 0, the first point found outside, the point before
+    it and the root between them are evaluated by the scalar g, and any disagreement raises
+    `_Undecided`. So the result is the scalar path's, unless the two evaluations differ by
+    more than NEAR somewhere."""
+    times = np.linspace(start, end, GRID)
+    first = None  # the index in `times` of the first point outside
+    for k in range(1, PROBE + 1):
+        if g(float(times[k])) < 0:
+            first = k
+            break
+    if first is None:
+        with np.errstate(all="ignore"):
+            values = np.asarray(grid(times[PROBE + 1:]), float)
+        if values.shape != (GRID - PROBE - 1,) or not np.all(np.isfinite(values)):
+            raise _Undecided
+        band = NEAR * (1.0 + float(np.max(np.abs(values))))
+        for k in np.flatnonzero(values < band):  # in grid order: the candidates for the first exit
+            t = float(times[PROBE + 1 + k])
+            if values[k] > -band:  # near 0: the scalar margin decides this point
+                if g(t) < 0:
+                    first = PROBE + 1 + int(k)
+                    break
+                continue
+            if not g(t) < 0:
+                raise _Undecided
+            first = PROBE + 1 + int(k)
+            break
+    if first is None:
+        return end
+    t, previous = float(times[first]), (start if first == 1 else float(times[first - 1]))
+    if g(previous) > 0:
+        try:
+            from scipy.optimize import brentq
+
+            root = brentq(g, previous, t, xtol=1e-14)
+        except ValueError:  # g overflowed to inf/nan between the samples
+            return previous
+        return root if g(root) >= 0 else previous + (root - previous) * (1 - 1e-9)
+    if previous == start and depth < 8:
+        return _last_inside_fast(grid, g, start, t, depth + 1)
+    return previous
+
+
+_NOT_YET = object()
+
+
+def _plain(n: Node) -> None:
+    """Unsupported unless n is built from real scalars only (no family cells, quantifiers or
+    index symbols: the vectorised flow binds none of them)."""
+    if n.op in ("select", "forall", "exists", "store", "apply", "box", "diamond"):
+        raise Unsupported(f"`{n.op}` in `{n}`")
+    for a in n.args:
+        _plain(a)
+
+
+class _VectorFlow:
+    """A closed-form flow and its domain's margin as numpy closures over many times at once
+    (`vectorise.VCompiler`): where to look for the domain's edge and the guarantee's worst
+    point. Nothing it computes is a run's state or duration by itself."""
+
+    def __init__(self, flow: Flow) -> None:
+        vc = VCompiler()
+        _plain(flow.ode.domain)
+        for x in flow.symbolic.values():
+            _plain(x)
+        self.s_name = flow.s_name
+        self.solution = {n: vc(x) for n, x in flow.symbolic.items()}
+        self.domain = vc.margin(flow.ode.domain)
+        reads: dict[str, None] = {}
+        for x in (flow.ode.domain, *flow.symbolic.values()):
+            reads.update(dict.fromkeys(free_vars(x)))
+        reads.pop(self.s_name, None)
+        self.reads = list(reads)
+
+    def env(self, state: dict[str, Any]) -> dict[str, float] | None:
+        """The values the closures read, as floats (None: one is open or not a number)."""
+        out = {}
+        for name in self.reads:
+            value = state.get(name)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                return None
+            out[name] = float(value)
+        return out
+
+    def values(self, env: dict[str, float], times: np.ndarray) -> dict[str, np.ndarray] | None:
+        """The flow's variables at `times` (None if one is not finite there)."""
+        inner = dict(env)
+        inner[self.s_name] = times
+        out = {}
+        with np.errstate(all="ignore"):
+            for name, fn in self.solution.items():
+                column = np.broadcast_to(np.asarray(fn(inner), float), times.shape)
+                if not np.all(np.isfinite(column)):
+                    return None
+                out[name] = column
+        return out
+
+    def margins(self, env: dict[str, float], times: np.ndarray) -> np.ndarray:
+        """The domain's margin at `times` (nan where a value is not finite)."""
+        inner = dict(env)
+        inner[self.s_name] = times
+        after = dict(env)
+        with np.errstate(all="ignore"):
+            for name, fn in self.solution.items():
+                after[name] = fn(inner)
+            return np.broadcast_to(np.asarray(self.domain(after), float), times.shape)
 
 
 def exact_view(state: dict[str, Any]) -> dict[str, Any]:

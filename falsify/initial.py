@@ -139,7 +139,33 @@ def _conjunct_atoms(f: Node) -> list[Node]:
 
 
 def _leaves(interp, atom: Node, env: dict, s) -> list:
-    """The values an atom reads: symbols and array cells (with their indices evaluated)."""
+    """The values an atom reads: symbols and array cells (with their indices evaluated).
+    Where every cell's index is a variable the instance binds (`rx[j]` in ∀j), the answer
+    depends on the atom and the binding only, and is remembered per interpreter."""
+    cache = interp.leaf_cache
+    key = (id(atom), tuple(sorted(env.items())))
+    got = cache.get(key)
+    if got is not None and got[0] is atom:
+        return got[1]
+    out = _read_leaves(interp, atom, env, s)
+    if _bound_indices(atom, env):
+        if len(cache) >= LEAF_CACHE:
+            cache.clear()
+        cache[key] = (atom, out)  # the atom is kept, so that its id is not reused
+    return out
+
+
+LEAF_CACHE = 100_000  # remembered (atom, binding) pairs per interpreter
+
+
+def _bound_indices(n: Node, env: dict) -> bool:
+    if n.op == "select":
+        if not all(i.op == "var" and i.payload in env for i in n.args[1:]):
+            return False
+    return all(_bound_indices(a, env) for a in n.args)
+
+
+def _read_leaves(interp, atom: Node, env: dict, s) -> list:
     out: list = []
 
     def walk(n: Node) -> None:

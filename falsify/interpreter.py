@@ -53,6 +53,41 @@ LOOP_BOUND = 1000  # iterations of an inner loop before the run is abandoned
 OPEN_LOOP_ITERATIONS = 3  # at most this many iterations of a loop with no exit test
 
 
+_NOT_BUILT = object()
+
+
+@dataclass
+class _Model:
+    """What every interpreter of one theorem (and number type) computes alike: closures, the
+    guarantee's parts, symbols, flows. All of it is a function of the (immutable) theorem,
+    so interpreters share it; the search's exact replays build one interpreter each."""
+
+    theorem: Theorem  # kept, so that its id is not reused while cached
+    compiler: Compiler
+    parts: list
+    index_sorts: list
+    symbols: dict
+    flows: dict = field(default_factory=dict)
+    leaf_cache: dict = field(default_factory=dict)
+
+
+_MODELS: dict[tuple[int, bool], _Model] = {}
+MODELS_KEPT = 64
+
+
+def _model(theorem: Theorem, exact: bool) -> _Model:
+    got = _MODELS.get((id(theorem), exact))
+    if got is None or got.theorem is not theorem:
+        if len(_MODELS) >= MODELS_KEPT:
+            _MODELS.clear()
+        c = Compiler(exact)
+        symbols = {**free_vars(theorem.assumptions), **program_symbols(theorem.program),
+                   **free_vars(theorem.guarantee)}
+        got = _MODELS[(id(theorem), exact)] = _Model(theorem, c, _parts(theorem.guarantee, c),
+                                                      index_sorts(theorem), symbols)
+    return got
+
+
 class _Violated(Exception):
     pass
 
@@ -104,15 +139,17 @@ class Interpreter:
     def __init__(self, theorem: Theorem, exact: bool = False, max_steps: int = 3,
                  families: tuple[int, int] = (1, 8), horizon: float = HORIZON) -> None:
         self.theorem, self.max_steps, self.families, self.horizon = theorem, max_steps, families, horizon
-        self.c = Compiler(exact)
+        model = _model(theorem, exact)
+        self.c = model.compiler
         self.exact = exact
         self.top = _outer_loop(theorem.program)
         self.guarantee = self.c(theorem.guarantee)
-        self.parts = _parts(theorem.guarantee, self.c)
-        self.index_sorts = index_sorts(theorem)
-        self.symbols = {**free_vars(theorem.assumptions), **program_symbols(theorem.program),
-                        **free_vars(theorem.guarantee)}
-        self._flows: dict[int, Flow] = {}
+        self.parts = model.parts
+        self.index_sorts = model.index_sorts
+        self.symbols = model.symbols
+        self._flows: dict[int, Flow] = model.flows
+        self._many: Any = _NOT_BUILT
+        self.leaf_cache = model.leaf_cache  # initial._leaves: what an instance of an assumption atom reads
 
     # ------------------------------------------------------------------ a run
     def run(self, chooser: Chooser, initial: dict[str, Any] | None = None,
@@ -269,16 +306,38 @@ class Interpreter:
             return got[1]
 
         watch = (lambda st: min(margins_of(st).values(), default=1.0)) if self.top is not None else None
+        many = self._many_margins() if watch is not None else None
         before = copy_state(s) if flow.solution is not None else None
-        end, tau, samples = flow.run(s, self.chooser.duration, self.horizon, watch)
+        end, tau, samples = flow.run(s, self.chooser.duration, self.horizon, watch, many)
         if before is not None:
             self.out.closed_form_flows.append((p, before, tau, dict(end)))
-        for t, st in samples:
-            scalars = {k: float(v) for k, v in st.items()
-                       if isinstance(v, (float, Fraction)) and "@" not in k}
-            self.out.samples.append((float(self.time) + float(t), margins_of(st), scalars))
+        # a sample differs from s only in the flow's variables: the other scalars are read once
+        moving = set(flow.names) | set(flow.symbolic or ())
+        fixed = {k: float(v) for k, v in s.items()
+                 if k not in moving and isinstance(v, (float, Fraction)) and "@" not in k}
+        for t, st, known in samples:
+            scalars = dict(fixed)
+            for k in moving:
+                v = st.get(k)
+                if isinstance(v, (float, Fraction)) and "@" not in k:
+                    scalars[k] = float(v)
+            margins = known if known is not None else margins_of(st)
+            self.out.samples.append((float(self.time) + float(t), margins, scalars))
         self.time = self.time + tau
         s.update(end)
+
+    def _many_margins(self):
+        """The guarantee's margins on many samples at once (watch.ManyMargins), or None where
+        it does not compile; built once per interpreter."""
+        if self._many is _NOT_BUILT:
+            from certiloop.falsify.vectorise import Unsupported
+            from certiloop.falsify.watch import ManyMargins
+
+            try:
+                self._many = None if self.exact else ManyMargins(self.theorem.guarantee)
+            except Unsupported:
+                self._many = None
+        return self._many
 
     def _quietly(self, fn, s) -> bool:
         try:
