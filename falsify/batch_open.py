@@ -36,6 +36,9 @@ class OpenValues:
     dropped: np.ndarray
     _leaves: dict[int, list[Leaf]]
     _fns: dict[int, Any]
+    _ids: dict[int, int]
+    _keys: dict[tuple, int]
+    _shadowing: dict[int, bool]
 
     def _log(self, kind: str, rows: np.ndarray, values: np.ndarray) -> None:
         raise NotImplementedError
@@ -57,17 +60,95 @@ class OpenValues:
     def _env(self, S: State, bind: Bind) -> dict[str, Any]:
         return {**S.vals, **bind} if bind else S.vals
 
+    def _same(self, n: Node) -> int:
+        """One number for every node with n's key (the same closure, the same truth), cached by
+        identity: a test's conjunct repeated in a choice's alternatives is evaluated once."""
+        got = self._ids.get(id(n))
+        if got is None:
+            got = self._ids[id(n)] = self._keys.setdefault(n.key, len(self._keys))
+        return got
+
+    def _shadows(self, f: Node) -> bool:
+        """A quantifier of f binds the name of a symbol (whose cells `_known` would then take at
+        that symbol): `_resolve` walks f without asking first whether all of it is known."""
+        got = self._shadowing.get(id(f))
+        if got is None:
+            def walk(x: Node) -> bool:
+                if x.op in ("forall", "exists") and any(v.payload in self.symbols for v in x.payload):
+                    return True
+                return any(walk(a) for a in x.args)
+            got = self._shadowing[id(f)] = walk(f)
+        return got
+
     def _truth(self, f: Node, S: State, bind: Bind | None = None) -> np.ndarray:
-        got = np.asarray(self._fn(f)(self._env(S, bind or {})), bool)
-        return got if got.shape == (S.n,) else np.broadcast_to(got, (S.n,))
+        """Per run: f holds. Kept in S.memo until S's next write (read-only: shared). A
+        conjunction, disjunction or ∀/∃ over the index sort whose parts' truths are all kept
+        (`_resolve` has just evaluated them) is combined from them, as its closure combines
+        its parts (all of them, no short-circuit)."""
+        key = ("truth", self._same(f), tuple(bind.items()) if bind else ())
+        memo = S.memo
+        got = memo.get(key)
+        if got is not None:
+            return got
+        got = self._combined(f, S, bind)
+        if got is None:
+            got = np.asarray(self._fn(f)(self._env(S, bind or {})), bool)
+            got = got if got.shape == (S.n,) else np.broadcast_to(got, (S.n,))
+        if got.flags.writeable:
+            got.flags.writeable = False
+        memo[key] = got
+        return got
+
+    def _combined(self, f: Node, S: State, bind: Bind | None) -> np.ndarray | None:
+        """f's truth from its parts' kept truths, or None if one of them is not kept."""
+        op = f.op
+        if op in ("and", "or"):
+            at = tuple(bind.items()) if bind else ()
+            keys = [("truth", self._same(a), at) for a in f.args]
+            every = op == "and"
+        elif op in ("forall", "exists"):
+            name, body = f.payload[0].payload, f.args[0]
+            part = self._same(body)
+            base = {**bind, name: 0} if bind else {name: 0}
+            keys = []
+            for k in range(self.vc.size):
+                base[name] = k
+                keys.append(("truth", part, tuple(base.items())))
+            every = op == "forall"
+        else:
+            return None
+        memo = S.memo
+        parts = [memo.get(k) for k in keys]
+        if not parts or any(t is None for t in parts):
+            return None
+        join = np.logical_and if every else np.logical_or
+        got = parts[0] if len(parts) == 1 else join(parts[0], parts[1])
+        for t in parts[2:]:
+            got = join(got, t)
+        return got
 
     def _known(self, f: Node, S: State, bind: Bind | None = None) -> np.ndarray:
         """Per run: every value f reads is chosen (a cell at a bound variable: every element).
-        Conservative: f may short-circuit before an open value the interpreter never reads."""
-        known = np.ones(S.n, bool)
-        for leaf in self._order(f, bind):
-            known &= ~S.is_open(leaf, bind or {})
-        return known
+        Conservative: f may short-circuit before an open value the interpreter never reads.
+        Kept in S.memo until S's next write (read-only: shared)."""
+        at = tuple(bind.items()) if bind else ()
+        key = ("known", self._same(f), at)
+        got = S.memo.get(key)
+        if got is None and f.op in ("and", "or"):  # from its parts', where all are kept
+            parts = [S.memo.get(("known", self._same(a), at)) for a in f.args]
+            if parts and all(t is not None for t in parts):
+                got = parts[0] if len(parts) == 1 else parts[0] & parts[1]
+                for t in parts[2:]:
+                    got = got & t
+                got.flags.writeable = False
+                S.memo[key] = got
+        if got is None:
+            got = np.ones(S.n, bool)
+            for leaf in self._order(f, bind):
+                got &= ~S.is_open(leaf, bind or {})
+            got.flags.writeable = False
+            S.memo[key] = got
+        return got
 
     # ------------------------------------------------------------------ choosing
     def _decide(self, cond: Node, S: State, rows: np.ndarray) -> np.ndarray:
@@ -93,6 +174,8 @@ class OpenValues:
         if not rows.any():
             return
         bind = bind or {}
+        if not self._shadows(f) and not (rows & ~self._known(f, S, bind)).any():
+            return  # every value f reads is chosen on rows: nothing to do
         op = f.op
         if op in ("and", "or"):
             cur = rows.copy()
@@ -141,8 +224,11 @@ class OpenValues:
         for atom in conjuncts(cond) if cond is not None else ():
             if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
                 continue
+            order = self._order(atom, bind)
+            if all(other[0] != name for other in order):  # it does not read the value: no solution
+                continue
             rows = left.copy()
-            for other in self._order(atom, bind):
+            for other in order:
                 if other != leaf:
                     rows &= ~S.is_open(other, bind)
             if not rows.any():
@@ -199,7 +285,7 @@ def solve_affine(lhs, rhs, at, n: int) -> np.ndarray:
     sides = []
     for x in (0.0, 1.0, 2.0):
         env = at(np.full(n, x))
-        sides.append((np.broadcast_to(lhs(env), (n,)), np.broadcast_to(rhs(env), (n,))))
+        sides.append((runs(lhs(env), n), runs(rhs(env), n)))
     (l0, r0), (l1, r1), (l2, r2) = sides
     slope_l, slope_r = l1 - l0, r1 - r0
     linear = ((np.abs((l2 - l1) - slope_l) <= 1e-9 * (1 + np.abs(slope_l)))
@@ -207,3 +293,8 @@ def solve_affine(lhs, rhs, at, n: int) -> np.ndarray:
     slope = slope_l - slope_r
     ok = linear & (slope != 0)
     return np.where(ok, (r0 - l0) / np.where(ok, slope, 1.0), np.nan)
+
+
+def runs(v, n: int) -> np.ndarray:
+    """v as one value per run: np.broadcast_to(v, (n,)), without its cost where v already is."""
+    return v if type(v) is np.ndarray and v.shape == (n,) else np.broadcast_to(v, (n,))
