@@ -253,6 +253,7 @@ class BatchProgram(OpenValues):
         self._ids: dict[int, int] = {}
         self._keys: dict[tuple, int] = {}
         self._shadowing: dict[int, bool] = {}
+        self._symbols_read: dict[int, tuple[str, ...]] = {}
         self._touched: dict[int, list[str]] = {}
         self._prepare(theorem.program)
         self._prepare_formula(theorem.assumptions)

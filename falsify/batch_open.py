@@ -39,6 +39,7 @@ class OpenValues:
     _ids: dict[int, int]
     _keys: dict[tuple, int]
     _shadowing: dict[int, bool]
+    _symbols_read: dict[int, tuple[str, ...]]
 
     def _log(self, kind: str, rows: np.ndarray, values: np.ndarray) -> None:
         raise NotImplementedError
@@ -80,14 +81,23 @@ class OpenValues:
             got = self._shadowing[id(f)] = walk(f)
         return got
 
+    def _reads(self, f: Node) -> tuple[str, ...]:
+        """The symbols f reads (a cell's family and index), cached by identity: its truth
+        holds while none of them is written."""
+        got = self._symbols_read.get(id(f))
+        if got is None:
+            names = (x for leaf in self._order(f) for x in leaf if x is not None and x in self.symbols)
+            got = self._symbols_read[id(f)] = tuple(dict.fromkeys(names))
+        return got
+
     def _truth(self, f: Node, S: State, bind: Bind | None = None) -> np.ndarray:
-        """Per run: f holds. Kept in S.memo until S's next write (read-only: shared). A
-        conjunction, disjunction or ∀/∃ over the index sort whose parts' truths are all kept
-        (`_resolve` has just evaluated them) is combined from them, as its closure combines
-        its parts (all of them, no short-circuit)."""
+        """Per run: f holds. Kept in S's memo until a symbol f reads is written (read-only:
+        shared). A conjunction, disjunction or ∀/∃ over the index sort whose parts' truths
+        are all kept (`_resolve` has just evaluated them) is combined from them, as its
+        closure combines its parts (all of them, no short-circuit)."""
         key = ("truth", self._same(f), tuple(bind.items()) if bind else ())
-        memo = S.memo
-        got = memo.get(key)
+        stamp = S.stamp(self._reads(f))
+        got = S.recall(key, stamp)
         if got is not None:
             return got
         got = self._combined(f, S, bind)
@@ -96,7 +106,7 @@ class OpenValues:
             got = got if got.shape == (S.n,) else np.broadcast_to(got, (S.n,))
         if got.flags.writeable:
             got.flags.writeable = False
-        memo[key] = got
+        S.keep(key, stamp, got)
         return got
 
     def _combined(self, f: Node, S: State, bind: Bind | None) -> np.ndarray | None:
@@ -104,21 +114,19 @@ class OpenValues:
         op = f.op
         if op in ("and", "or"):
             at = tuple(bind.items()) if bind else ()
-            keys = [("truth", self._same(a), at) for a in f.args]
+            parts = [S.recall(("truth", self._same(a), at), S.stamp(self._reads(a))) for a in f.args]
             every = op == "and"
         elif op in ("forall", "exists"):
             name, body = f.payload[0].payload, f.args[0]
-            part = self._same(body)
-            base = {**bind, name: 0} if bind else {name: 0}
-            keys = []
+            part, stamp = self._same(body), S.stamp(self._reads(body))
+            inner = {**bind, name: 0} if bind else {name: 0}
+            parts = []
             for k in range(self.vc.size):
-                base[name] = k
-                keys.append(("truth", part, tuple(base.items())))
+                inner[name] = k
+                parts.append(S.recall(("truth", part, tuple(inner.items())), stamp))
             every = op == "forall"
         else:
             return None
-        memo = S.memo
-        parts = [memo.get(k) for k in keys]
         if not parts or any(t is None for t in parts):
             return None
         join = np.logical_and if every else np.logical_or
@@ -130,24 +138,24 @@ class OpenValues:
     def _known(self, f: Node, S: State, bind: Bind | None = None) -> np.ndarray:
         """Per run: every value f reads is chosen (a cell at a bound variable: every element).
         Conservative: f may short-circuit before an open value the interpreter never reads.
-        Kept in S.memo until S's next write (read-only: shared)."""
+        Kept in S's memo until a symbol f reads is written (read-only: shared)."""
         at = tuple(bind.items()) if bind else ()
-        key = ("known", self._same(f), at)
-        got = S.memo.get(key)
+        key, stamp = ("known", self._same(f), at), S.stamp(self._reads(f))
+        got = S.recall(key, stamp)
         if got is None and f.op in ("and", "or"):  # from its parts', where all are kept
-            parts = [S.memo.get(("known", self._same(a), at)) for a in f.args]
+            parts = [S.recall(("known", self._same(a), at), S.stamp(self._reads(a))) for a in f.args]
             if parts and all(t is not None for t in parts):
                 got = parts[0] if len(parts) == 1 else parts[0] & parts[1]
                 for t in parts[2:]:
                     got = got & t
                 got.flags.writeable = False
-                S.memo[key] = got
+                S.keep(key, stamp, got)
         if got is None:
             got = np.ones(S.n, bool)
             for leaf in self._order(f, bind):
                 got &= ~S.is_open(leaf, bind or {})
             got.flags.writeable = False
-            S.memo[key] = got
+            S.keep(key, stamp, got)
         return got
 
     # ------------------------------------------------------------------ choosing
@@ -235,7 +243,8 @@ class OpenValues:
                 continue
             lhs, rhs = self._fn(atom.args[0]), self._fn(atom.args[1])
             env = self._env(S, bind)
-            x = solve_affine(lhs, rhs, partial(S.with_value, env, leaf, bind), self.n)
+            fixed = (name not in self._reads(atom.args[0]), name not in self._reads(atom.args[1]))
+            x = solve_affine(lhs, rhs, partial(S.with_value, env, leaf, bind), self.n, fixed)
             solved = rows & np.isfinite(x)
             S.put(leaf, bind, solved, x)
             left &= ~solved
@@ -278,14 +287,16 @@ class OpenValues:
         return ok
 
 
-def solve_affine(lhs, rhs, at, n: int) -> np.ndarray:
+def solve_affine(lhs, rhs, at, n: int, fixed: tuple[bool, bool] = (False, False)) -> np.ndarray:
     """Per run, x with lhs = rhs where both sides are affine in a value (state.solve_linear,
     vectorised); `at(x)` is the environment with that value set to x; nan where they are not
-    affine in it."""
-    sides = []
+    affine in it. `fixed`: the side does not read the value (evaluated once, the same
+    arrays as three evaluations would give)."""
+    sides: list[tuple[np.ndarray, np.ndarray]] = []
     for x in (0.0, 1.0, 2.0):
         env = at(np.full(n, x))
-        sides.append((runs(lhs(env), n), runs(rhs(env), n)))
+        sides.append((sides[0][0] if sides and fixed[0] else runs(lhs(env), n),
+                      sides[0][1] if sides and fixed[1] else runs(rhs(env), n)))
     (l0, r0), (l1, r1), (l2, r2) = sides
     slope_l, slope_r = l1 - l0, r1 - r0
     linear = ((np.abs((l2 - l1) - slope_l) <= 1e-9 * (1 + np.abs(slope_l)))

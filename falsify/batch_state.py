@@ -8,14 +8,16 @@ a symbol, or a family's cell at an index symbol — an element per run — or at
 quantifier binds (`bind`: variable -> element, the same for every run).
 
 `memo` keeps what is derived from the values (a cell's columns, open masks, the truths
-`batch_open` computes) until the next write, and `written` the symbols written since the
-state was copied (a trial's: what `merge` takes back): every write goes through this class
-or calls `changed(names)`.
+`batch_open` computes), each with the stamps of the symbols it was derived from: kept while
+none of them is written (`recall`). `stamps` gives each symbol a new stamp at every write,
+and `written` lists the symbols written since the state was copied (a trial's: what `merge`
+takes back): every write goes through this class or calls `changed(names)`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from itertools import count
 from typing import Any, Iterable
 
 import numpy as np
@@ -23,6 +25,7 @@ import numpy as np
 from certiloop.falsify.vectorise import Leaf
 
 Bind = dict[str, int]
+_STAMPS = count(1)  # never the same stamp twice, in any state
 
 
 @dataclass
@@ -30,14 +33,30 @@ class State:
     vals: dict[str, np.ndarray]
     open: dict[str, np.ndarray]
     time: np.ndarray
-    memo: dict[tuple, Any] = field(default_factory=dict, repr=False, compare=False)
+    memo: dict[tuple, tuple[tuple, Any]] = field(default_factory=dict, repr=False, compare=False)
     written: set[str] = field(default_factory=set, repr=False, compare=False)
+    stamps: dict[str, int] = field(default_factory=dict, repr=False, compare=False)
 
     def changed(self, *names: str) -> None:
-        """After writing the symbols `names` directly (vals or open): forget what was derived
-        from the values, and note them written."""
-        self.memo.clear()
+        """After writing the symbols `names` directly (vals or open): new stamps for them (what
+        was derived from them is stale), and note them written."""
+        for k in names:
+            self.stamps[k] = next(_STAMPS)
         self.written.update(names)
+
+    def stamp(self, names: tuple[str, ...]) -> tuple:
+        """The symbols' stamps: what was derived from them with these stamps still holds."""
+        get = self.stamps.get
+        return tuple([get(k, 0) for k in names])
+
+    def recall(self, key: tuple, stamp: tuple) -> Any:
+        """What `keep` kept under key, if derived with these stamps; else None."""
+        got = self.memo.get(key)
+        return got[1] if got is not None and got[0] == stamp else None
+
+    def keep(self, key: tuple, stamp: tuple, value: Any) -> None:
+        """Keep value (not to be modified: shared) as derived from symbols with these stamps."""
+        self.memo[key] = (stamp, value)
 
     @property
     def n(self) -> int:
@@ -49,16 +68,15 @@ class State:
         vals, opened = dict(self.vals), dict(self.open)
         for k in self.vals if names is None else names:
             vals[k], opened[k] = self.vals[k].copy(), self.open[k].copy()
-        return State(vals, opened, self.time.copy(), dict(self.memo))  # the same values: the same memo
+        return State(vals, opened, self.time.copy(), dict(self.memo), set(), dict(self.stamps))
 
     def merge(self, other: "State", rows: np.ndarray, names: Iterable[str] | None = None) -> None:
         """Take `other`'s values on `rows` (the runs whose attempt succeeded): of the symbols
         it wrote since it was copied from this state (the others are this state's still)."""
         if not rows.any():
             return
-        self.memo.clear()
         for k in other.written if names is None else [k for k in names if k in other.written]:
-            self.written.add(k)
+            self.changed(k)
             v = self.vals[k]
             where = rows if v.ndim == 1 else rows[:, None]
             np.copyto(v, other.vals[k], where=where)
@@ -83,11 +101,13 @@ class State:
         if index in bind:
             return bind[index]
         if index in self.vals:
-            key = ("column", index)
-            got = self.memo.get(key)
+            key, stamp = ("column", index), (self.stamps.get(index, 0),)
+            got = self.recall(key, stamp)
             if got is None:
                 at = self.vals[index]
-                got = self.memo[key] = np.where(np.isfinite(at), at, 0).astype(np.intp)
+                got = np.where(np.isfinite(at), at, 0).astype(np.intp)
+                got.flags.writeable = False
+                self.keep(key, stamp, got)
             return got
         return None
 
@@ -98,18 +118,20 @@ class State:
         if index is None:
             return self.open[name]
         key = ("open", name, bind[index] if index in bind else index)
-        got = self.memo.get(key)
+        get = self.stamps.get
+        stamp = (get(name, 0), get(index, 0))
+        got = self.recall(key, stamp)
         if got is None:
             at = self.column(leaf, bind)
             table = self.open[name]
             if at is None:
                 got = table.any(axis=1)
             elif isinstance(at, int):
-                got = table[:, at]
+                got = table[:, at].copy()
             else:
                 got = self.open[index] | table[_rows(self.n), at]
-            got.flags.writeable = False  # shared until the next write
-            self.memo[key] = got
+            got.flags.writeable = False  # shared
+            self.keep(key, stamp, got)
         return got
 
     def get(self, leaf: Leaf, bind: Bind) -> np.ndarray:
