@@ -158,5 +158,6 @@ def test_a_side_that_does_not_read_the_value_is_solved_alike():
 
         def at(v):
             return {**env0, "s": v}
-        full = solve_affine(vc(lhs), vc(rhs), at, N)
-        assert np.array_equal(solve_affine(vc(lhs), vc(rhs), at, N, fixed), full, equal_nan=True)
+        with np.errstate(all="ignore"):  # inf - inf: as in a batch, where such runs are dropped
+            full = solve_affine(vc(lhs), vc(rhs), at, N)
+            assert np.array_equal(solve_affine(vc(lhs), vc(rhs), at, N, fixed), full, equal_nan=True)
