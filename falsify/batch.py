@@ -34,7 +34,7 @@ from typing import Any
 import numpy as np
 
 from certiloop.falsify.batch_ints import IntBatchProgram, has_ints
-from certiloop.falsify.batch_open import OpenValues, solve_affine
+from certiloop.falsify.batch_open import OpenValues, runs, solve_affine
 from certiloop.falsify.batch_state import Bind, State
 from certiloop.falsify.choosers import REAL_RANGE
 from certiloop.falsify.evaluate import Table
@@ -250,6 +250,10 @@ class BatchProgram(OpenValues):
         self.flows: dict[int, _Flow] = {}
         self._leaves: dict[int, list[Leaf]] = {}
         self._fns: dict[int, Any] = {}
+        self._ids: dict[int, int] = {}
+        self._keys: dict[tuple, int] = {}
+        self._shadowing: dict[int, bool] = {}
+        self._symbols_read: dict[int, tuple[str, ...]] = {}
         self._touched: dict[int, list[str]] = {}
         self._prepare(theorem.program)
         self._prepare_formula(theorem.assumptions)
@@ -339,6 +343,7 @@ class BatchProgram(OpenValues):
         for name in self.given:
             S.vals[name][:] = self._draw(name, shape[name])
             S.open[name][:] = False
+        S.changed(*self.given)
         instances = self._instances(self.theorem.assumptions, np.ones(n, bool), {})
         counts = Counter(_where(leaf, bind) for atom, _, bind in instances
                          for leaf in self._order(atom, bind))
@@ -485,7 +490,7 @@ class BatchProgram(OpenValues):
 
     def _assign(self, p: Assign, S: State, rows: np.ndarray) -> np.ndarray:
         self._resolve(p.value, S, rows, None)
-        x = np.broadcast_to(np.asarray(self._fn(p.value)(S.vals), float), (self.n,))
+        x = runs(np.asarray(self._fn(p.value)(S.vals), float), self.n)
         self.dropped |= rows & ~np.isfinite(x)
         ok = rows & ~self.dropped
         S.put(self._target(p.target, S, ok), {}, ok, x)
@@ -495,6 +500,7 @@ class BatchProgram(OpenValues):
         if target.op == "var" and target.payload in self.families:  # a whole family: every cell open
             S.open[target.payload][rows] = True
             S.vals[target.payload][rows] = np.nan
+            S.changed(target.payload)
             return
         S.put(self._target(target, S, rows), {}, rows, np.nan, open_=True)
 
@@ -646,6 +652,7 @@ class BatchProgram(OpenValues):
         for name, v in after.items():
             S.vals[name][at[good]] = v[good]
             S.open[name][at[good]] = False
+        S.changed(*after)
         S.time[ok] += duration[ok]
         return ok
 

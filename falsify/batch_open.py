@@ -36,6 +36,10 @@ class OpenValues:
     dropped: np.ndarray
     _leaves: dict[int, list[Leaf]]
     _fns: dict[int, Any]
+    _ids: dict[int, int]
+    _keys: dict[tuple, int]
+    _shadowing: dict[int, bool]
+    _symbols_read: dict[int, tuple[str, ...]]
 
     def _log(self, kind: str, rows: np.ndarray, values: np.ndarray) -> None:
         raise NotImplementedError
@@ -57,17 +61,102 @@ class OpenValues:
     def _env(self, S: State, bind: Bind) -> dict[str, Any]:
         return {**S.vals, **bind} if bind else S.vals
 
+    def _same(self, n: Node) -> int:
+        """One number for every node with n's key (the same closure, the same truth), cached by
+        identity: a test's conjunct repeated in a choice's alternatives is evaluated once."""
+        got = self._ids.get(id(n))
+        if got is None:
+            got = self._ids[id(n)] = self._keys.setdefault(n.key, len(self._keys))
+        return got
+
+    def _shadows(self, f: Node) -> bool:
+        """A quantifier of f binds the name of a symbol (whose cells `_known` would then take at
+        that symbol): `_resolve` walks f without asking first whether all of it is known."""
+        got = self._shadowing.get(id(f))
+        if got is None:
+            def walk(x: Node) -> bool:
+                if x.op in ("forall", "exists") and any(v.payload in self.symbols for v in x.payload):
+                    return True
+                return any(walk(a) for a in x.args)
+            got = self._shadowing[id(f)] = walk(f)
+        return got
+
+    def _reads(self, f: Node) -> tuple[str, ...]:
+        """The symbols f reads (a cell's family and index), cached by identity: its truth
+        holds while none of them is written."""
+        got = self._symbols_read.get(id(f))
+        if got is None:
+            names = (x for leaf in self._order(f) for x in leaf if x is not None and x in self.symbols)
+            got = self._symbols_read[id(f)] = tuple(dict.fromkeys(names))
+        return got
+
     def _truth(self, f: Node, S: State, bind: Bind | None = None) -> np.ndarray:
-        got = np.asarray(self._fn(f)(self._env(S, bind or {})), bool)
-        return got if got.shape == (S.n,) else np.broadcast_to(got, (S.n,))
+        """Per run: f holds. Kept in S's memo until a symbol f reads is written (read-only:
+        shared). A conjunction, disjunction or ∀/∃ over the index sort whose parts' truths
+        are all kept (`_resolve` has just evaluated them) is combined from them, as its
+        closure combines its parts (all of them, no short-circuit)."""
+        key = ("truth", self._same(f), tuple(bind.items()) if bind else ())
+        stamp = S.stamp(self._reads(f))
+        got = S.recall(key, stamp)
+        if got is not None:
+            return got
+        got = self._combined(f, S, bind)
+        if got is None:
+            got = np.asarray(self._fn(f)(self._env(S, bind or {})), bool)
+            got = got if got.shape == (S.n,) else np.broadcast_to(got, (S.n,))
+        if got.flags.writeable:
+            got.flags.writeable = False
+        S.keep(key, stamp, got)
+        return got
+
+    def _combined(self, f: Node, S: State, bind: Bind | None) -> np.ndarray | None:
+        """f's truth from its parts' kept truths, or None if one of them is not kept."""
+        op = f.op
+        if op in ("and", "or"):
+            at = tuple(bind.items()) if bind else ()
+            parts = [S.recall(("truth", self._same(a), at), S.stamp(self._reads(a))) for a in f.args]
+            every = op == "and"
+        elif op in ("forall", "exists"):
+            name, body = f.payload[0].payload, f.args[0]
+            part, stamp = self._same(body), S.stamp(self._reads(body))
+            inner = {**bind, name: 0} if bind else {name: 0}
+            parts = []
+            for k in range(self.vc.size):
+                inner[name] = k
+                parts.append(S.recall(("truth", part, tuple(inner.items())), stamp))
+            every = op == "forall"
+        else:
+            return None
+        if not parts or any(t is None for t in parts):
+            return None
+        join = np.logical_and if every else np.logical_or
+        got = parts[0] if len(parts) == 1 else join(parts[0], parts[1])
+        for t in parts[2:]:
+            got = join(got, t)
+        return got
 
     def _known(self, f: Node, S: State, bind: Bind | None = None) -> np.ndarray:
         """Per run: every value f reads is chosen (a cell at a bound variable: every element).
-        Conservative: f may short-circuit before an open value the interpreter never reads."""
-        known = np.ones(S.n, bool)
-        for leaf in self._order(f, bind):
-            known &= ~S.is_open(leaf, bind or {})
-        return known
+        Conservative: f may short-circuit before an open value the interpreter never reads.
+        Kept in S's memo until a symbol f reads is written (read-only: shared)."""
+        at = tuple(bind.items()) if bind else ()
+        key, stamp = ("known", self._same(f), at), S.stamp(self._reads(f))
+        got = S.recall(key, stamp)
+        if got is None and f.op in ("and", "or"):  # from its parts', where all are kept
+            parts = [S.recall(("known", self._same(a), at), S.stamp(self._reads(a))) for a in f.args]
+            if parts and all(t is not None for t in parts):
+                got = parts[0] if len(parts) == 1 else parts[0] & parts[1]
+                for t in parts[2:]:
+                    got = got & t
+                got.flags.writeable = False
+                S.keep(key, stamp, got)
+        if got is None:
+            got = np.ones(S.n, bool)
+            for leaf in self._order(f, bind):
+                got &= ~S.is_open(leaf, bind or {})
+            got.flags.writeable = False
+            S.keep(key, stamp, got)
+        return got
 
     # ------------------------------------------------------------------ choosing
     def _decide(self, cond: Node, S: State, rows: np.ndarray) -> np.ndarray:
@@ -93,6 +182,8 @@ class OpenValues:
         if not rows.any():
             return
         bind = bind or {}
+        if not self._shadows(f) and not (rows & ~self._known(f, S, bind)).any():
+            return  # every value f reads is chosen on rows: nothing to do
         op = f.op
         if op in ("and", "or"):
             cur = rows.copy()
@@ -141,15 +232,19 @@ class OpenValues:
         for atom in conjuncts(cond) if cond is not None else ():
             if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
                 continue
+            order = self._order(atom, bind)
+            if all(other[0] != name for other in order):  # it does not read the value: no solution
+                continue
             rows = left.copy()
-            for other in self._order(atom, bind):
+            for other in order:
                 if other != leaf:
                     rows &= ~S.is_open(other, bind)
             if not rows.any():
                 continue
             lhs, rhs = self._fn(atom.args[0]), self._fn(atom.args[1])
             env = self._env(S, bind)
-            x = solve_affine(lhs, rhs, partial(S.with_value, env, leaf, bind), self.n)
+            fixed = (name not in self._reads(atom.args[0]), name not in self._reads(atom.args[1]))
+            x = solve_affine(lhs, rhs, partial(S.with_value, env, leaf, bind), self.n, fixed)
             solved = rows & np.isfinite(x)
             S.put(leaf, bind, solved, x)
             left &= ~solved
@@ -192,14 +287,16 @@ class OpenValues:
         return ok
 
 
-def solve_affine(lhs, rhs, at, n: int) -> np.ndarray:
+def solve_affine(lhs, rhs, at, n: int, fixed: tuple[bool, bool] = (False, False)) -> np.ndarray:
     """Per run, x with lhs = rhs where both sides are affine in a value (state.solve_linear,
     vectorised); `at(x)` is the environment with that value set to x; nan where they are not
-    affine in it."""
-    sides = []
+    affine in it. `fixed`: the side does not read the value (evaluated once, the same
+    arrays as three evaluations would give)."""
+    sides: list[tuple[np.ndarray, np.ndarray]] = []
     for x in (0.0, 1.0, 2.0):
         env = at(np.full(n, x))
-        sides.append((np.broadcast_to(lhs(env), (n,)), np.broadcast_to(rhs(env), (n,))))
+        sides.append((sides[0][0] if sides and fixed[0] else runs(lhs(env), n),
+                      sides[0][1] if sides and fixed[1] else runs(rhs(env), n)))
     (l0, r0), (l1, r1), (l2, r2) = sides
     slope_l, slope_r = l1 - l0, r1 - r0
     linear = ((np.abs((l2 - l1) - slope_l) <= 1e-9 * (1 + np.abs(slope_l)))
@@ -207,3 +304,8 @@ def solve_affine(lhs, rhs, at, n: int) -> np.ndarray:
     slope = slope_l - slope_r
     ok = linear & (slope != 0)
     return np.where(ok, (r0 - l0) / np.where(ok, slope, 1.0), np.nan)
+
+
+def runs(v, n: int) -> np.ndarray:
+    """v as one value per run: np.broadcast_to(v, (n,)), without its cost where v already is."""
+    return v if type(v) is np.ndarray and v.shape == (n,) else np.broadcast_to(v, (n,))
