@@ -25,7 +25,7 @@ from math import gcd
 from certiloop.models.lang.terms import Node
 
 MAX_TERMS = 4000  # monomials held while expanding one comparison
-MIN_DEGREE = 2  # comparisons of degree <= 2 count 0: left to z3's own budget
+MIN_DEGREE = 3  # comparisons of degree <= 3 count 0: left to z3's own budget
 TOO_LARGE = 10**9  # the count of a comparison whose expansion passes MAX_TERMS
 Monomial = tuple[tuple[str, int], ...]  # (variable, exponent), sorted by variable
 Poly = dict[Monomial, Fraction]
