@@ -29,6 +29,7 @@ from certiloop.models.lang.terms import (
     REAL,
     And,
     Implies,
+    ModelError,
     Node,
     Var,
     store,
@@ -131,6 +132,7 @@ class VCGen:
     plan: dict[tuple, tuple[OdeStep, ...]] = field(default_factory=dict)
     names: Names = field(default_factory=Names)
     obligations: list[Obligation] = field(default_factory=list)
+    limit: int | None = None  # more obligations than this: TooManyObligations (a count, not a clock)
 
     # ---- entry point
     def run(self) -> list[Obligation]:
@@ -149,6 +151,9 @@ class VCGen:
         goal = st.value(expand_modalities(goal, self.names, positive=True))
         facts = st.facts
         path = " / ".join(st.path + (what,))
+        if self.limit is not None and len(self.obligations) >= self.limit:
+            raise TooManyObligations(f"the proof has more than {self.limit:,} obligations (the program's "
+                                     "paths multiply); none was tried")
         oid = f"o{len(self.obligations) + 1}"
         self.obligations.append(Obligation(oid, path, Implies(And(*facts), goal), self.theorem.name,
                                            self.theorem.abbreviations, kind, rule=_blamed(st.rules),
@@ -305,8 +310,14 @@ def _indices(target: Node) -> tuple[Node, ...]:
     return tuple(idx)
 
 
-def generate(theorem: Theorem, plan: dict[tuple, tuple[OdeStep, ...]] | None = None) -> list[Obligation]:
+class TooManyObligations(ModelError):
+    """The proof would need more obligations than the caller's limit: nothing can be proved
+    (a deterministic count, so the verdict does not depend on the machine)."""
+
+
+def generate(theorem: Theorem, plan: dict[tuple, tuple[OdeStep, ...]] | None = None,
+             limit: int | None = None) -> list[Obligation]:
     """All proof obligations of a theorem, in proof-tree order; `plan` chooses how ODEs are
-    proved (see VCGen.plan)."""
-    return VCGen(theorem, plan=dict(plan or {})).run()
+    proved (see VCGen.plan). With `limit`, TooManyObligations once there would be more."""
+    return VCGen(theorem, plan=dict(plan or {}), limit=limit).run()
 

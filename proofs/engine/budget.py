@@ -20,6 +20,19 @@ PLAN_SHARE = 10  # each trial of an ODE cut chain's link (proofs/engine/odeplan.
 # an obligation's budget (the library's hardest run, sbs.predictive_multi, needs ~4.6M units
 # under its scenario; sbs.ctrl2_last_wins ~2.7M over a two-boundary family).
 REFUTE_FACTOR = 16
+# Nonlinear size (proofs/engine/polysize.py: mixed monomials x their degree x coefficient bits,
+# the largest over a formula's comparisons of degree 4 and more) above which a formula is not
+# given to z3: there its rlimit stops counting most of the work (nlsat's projections; a
+# degree-10 barrier in two variables: 42 s for 530,000 units). KeYmaera X's archives, 2026-11:
+# the largest of any proved entry's obligations is 648 (nonlinear.kyx's Ferragut Giacomini
+# Example 1, degree 7); the slow unknown ones are 1,782 to 8,600. The library: at most 480 on
+# proved models (sbs.predictive); sbs.predictive_multi (refuted by a run) has 21 obligations
+# above, none proved before either.
+MAX_NONLINEAR_SIZE = 1500
+# Obligations of one proof above which none is tried (the program's paths multiply): the
+# library's largest proof has 144 (sbs.ctrl2), KeYmaera X's archives' proved entries fewer;
+# advanced.kyx's CTCS-3 has 6,602, whose generation alone took longer than 30 s.
+MAX_OBLIGATIONS = 1000
 DEFAULT_WALL_S = 60.0
 RUN_WALL_FACTOR = 5  # a run search's calls are larger: a wider safety net
 
@@ -32,6 +45,9 @@ class Budget:
     # obligations); such a call ends 'unknown' and says the net was reached. Library proofs
     # take under 5 s a call.
     wall_s: float = DEFAULT_WALL_S
+    # a formula whose nonlinear size passes this is left unknown without calling z3 (deterministic)
+    max_nonlinear_size: int = MAX_NONLINEAR_SIZE
+    max_obligations: int = MAX_OBLIGATIONS  # more in one proof: unknown, none tried (deterministic)
 
     def share(self, divisor: int) -> "Budget":
         return replace(self, rlimit=max(1, self.rlimit // divisor))

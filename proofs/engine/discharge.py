@@ -5,14 +5,16 @@ from __future__ import annotations
 import time
 from fractions import Fraction
 
-from certiloop.models.lang.terms import And
+from certiloop.models.lang.terms import And, Node
 from certiloop.proofs.arith.projection import abbreviation_instances
 from certiloop.proofs.core.cases import case_formulas
-from certiloop.proofs.core.solver import check_valid
+from certiloop.proofs.core.simplify import simplify
+from certiloop.proofs.core.solver import SolverAnswer, check_valid
 from certiloop.proofs.core.vcgen import Obligation
 from certiloop.proofs.core.verdicts import ObligationResult, judge
 from certiloop.proofs.core.weaken import weakenings
 from certiloop.proofs.engine.budget import PROJECTED_CEX_SHARE, Budget
+from certiloop.proofs.engine.polysize import nonlinear_size
 
 
 def discharge_one(ob: Obligation, budget: Budget | None = None, quick: bool = False,
@@ -36,7 +38,7 @@ def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: b
         if projected_cex and quick and "abstracted" not in backend:
             continue  # quick mode: raw forms of a projected-false obligation never finish in a share
         share = budget.share(PROJECTED_CEX_SHARE) if projected_cex else budget
-        answer = check_valid(weaker, share.rlimit, share.wall_s)
+        answer = _check(weaker, share)
         if answer.status == "unsat":
             res = judge(ob.id, ob.path, weaker, answer, time.perf_counter() - start)
             res.backend, res.kind, res.proved_formula = backend, ob.kind, weaker
@@ -47,8 +49,8 @@ def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: b
         return ObligationResult(ob.id, ob.path, "unknown", time.perf_counter() - start, kind=ob.kind,
                                 reason="not proved: its projected form (abstracted) has a counterexample")
     share = budget.share(PROJECTED_CEX_SHARE) if projected_cex else budget
-    answer = check_valid(ob.formula, share.rlimit, share.wall_s)
-    if answer.status == "unknown" and not quick and not projected_cex:
+    answer = _check(ob.formula, share)
+    if answer.status == "unknown" and not quick and not projected_cex and answer.spent >= 0:
         split = _by_cases(ob, share, start)
         if split is not None:
             return split
@@ -64,6 +66,20 @@ def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: b
     return res
 
 
+def _check(formula: Node, budget: Budget) -> SolverAnswer:
+    """z3 on the formula, unless its nonlinear size passes the budget's bound even once its
+    constants are folded: then `unknown` at once (spent -1), since z3's resource count would
+    not cover most of that work."""
+    size = nonlinear_size(formula)
+    if size > budget.max_nonlinear_size:
+        size = nonlinear_size(simplify(formula))  # rare: only above the bound
+    if size > budget.max_nonlinear_size:
+        return SolverAnswer("unknown", f"not given to z3: its nonlinear arithmetic is too large for the "
+                            f"deterministic budget (size {size:,} > {budget.max_nonlinear_size:,}: mixed "
+                            "monomials x degree x coefficient bits)", spent=-1)
+    return check_valid(formula, budget.rlimit, budget.wall_s)
+
+
 def _by_cases(ob: Obligation, budget: Budget, start: float) -> ObligationResult | None:
     """The obligation proved case by case on its guards (proofs/core/cases.py), the cases
     sharing one more budget of z3 units; None unless every case is proved."""
@@ -71,7 +87,7 @@ def _by_cases(ob: Obligation, budget: Budget, start: float) -> ObligationResult 
     if cases is None:
         return None
     for case in cases:
-        if check_valid(case, max(1, budget.rlimit // len(cases)), budget.wall_s).status != "unsat":
+        if _check(case, budget.share(len(cases))).status != "unsat":
             return None
     res = ObligationResult(ob.id, ob.path, "proved", time.perf_counter() - start,
                            backend=f"z3 ({len(cases)} cases)", kind=ob.kind)

@@ -15,7 +15,7 @@ from typing import Any, Callable
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.vacuity import nonblocking_obligations
-from certiloop.proofs.core.vcgen import Obligation, generate
+from certiloop.proofs.core.vcgen import Obligation, TooManyObligations, generate
 from certiloop.proofs.core.verdicts import ObligationResult, RunEvidence, decide_theorem, readable
 from certiloop.proofs.engine.budget import PLAN_SHARE, QUICK_SHARE, Budget
 from certiloop.proofs.engine.discharge import discharge_one
@@ -162,8 +162,11 @@ class Prover:
         """search=False only discharges the obligations: a theorem not proved is then
         'unknown', without the (costly) search for a violating run."""
         start = time.perf_counter()
+        too_many: TooManyObligations | None = None
         try:
-            obligations = generate(theorem)
+            obligations = generate(theorem, limit=self.budget.max_obligations)
+        except TooManyObligations as exc:  # a count: nothing is tried, the verdict is at most unknown
+            obligations, too_many = [], exc
         except ModelError as exc:
             # no obligations (e.g. a flow without a polynomial solution inside a formula's
             # modality): the claim may still be refuted at a small state by a proof
@@ -180,7 +183,16 @@ class Prover:
         if smtlib_dir is not None:
             write_smtlib(theorem.name, obligations, smtlib_dir)
         refutation, why, evidence = None, "", None
-        if theorem.expected == "refuted" and search:
+        if too_many is not None:
+            # never an empty list: decide_theorem calls no obligations all proved
+            results = [ObligationResult("o1", "the whole proof", "unknown", 0.0, backend="none",
+                                        reason=str(too_many))]
+            if on_result:
+                on_result(results[0])
+            if search:
+                refutation, why = self._run(_refute_task, theorem, self.budget)
+                evidence = confirm_run(theorem, refutation) if refutation is not None else None
+        elif theorem.expected == "refuted" and search:
             # Scheduling only: search for the run while a quick per-branch report runs, and
             # give the branches their full budget only if no confirmed run was found.
             search = self._submit(_refute_task, theorem, self.budget)
