@@ -47,6 +47,7 @@ class SolverAnswer:
     model: dict[str, Any] | None = None
     model_falsifies: bool | None = None  # z3's own evaluation of the formula in its model
     spent: int = 0  # z3 resource units (rlimit count) the check used
+    backend: str = "z3"  # who decided: z3, or exact interval arithmetic (boxes.py)
 
 
 def check_valid(formula: Node, rlimit: int, wall_s: float = 600.0) -> SolverAnswer:
