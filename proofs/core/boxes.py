@@ -20,14 +20,14 @@ the clock.
 from __future__ import annotations
 
 from fractions import Fraction
-from math import comb, isqrt
+from math import comb
 
-from certiloop.models.lang.terms import REAL, Node
+from certiloop.models.lang.terms import REAL, Node, free_vars
 
 MAX_CASES = 32  # disjunctive cases of not-F: more, and the formula is left to z3
 MAX_TERMS = 600  # monomials of one literal's polynomial (expanded, or around a box's centre)
-MAX_DEGREE = 6  # a literal of higher total degree is not used
-MAX_BOXES = 256  # pieces examined per case: the partition's deterministic budget
+MAX_DEGREE = 24  # a literal of higher total degree is not used (nor higher powers expanded)
+MAX_BOXES = 64  # pieces examined per case: the partition's deterministic budget
 
 Monomial = tuple[tuple[int, int], ...]  # (atom index, exponent), sorted by index
 Poly = dict[Monomial, Fraction]
@@ -44,19 +44,10 @@ def proves(formula: Node) -> bool:
     if not _nonlinear(formula):
         return False  # linear arithmetic: z3 is complete and fast there
     cases = _dnf(formula, positive=False)
-    if cases is None or not cases:
-        return cases is not None  # no case at all: not-F is false as it stands
+    if cases is None:
+        return False
     atoms: dict[tuple, int] = {}
-    for case in cases:
-        literals = []
-        for atom in case:
-            try:
-                literals.append(_literal(atom, atoms))
-            except (_Unusable, RecursionError, ZeroDivisionError):
-                continue  # dropped: the case gets more models, never fewer
-        if not _case_empty(literals):
-            return False
-    return True
+    return all(_case_empty(case, atoms) for case in cases)  # no case at all: not-F is false
 
 
 # --------------------------------------------------------------------------- reading not-F
@@ -116,7 +107,7 @@ def _literal(atom: Node, atoms: dict[tuple, int]) -> tuple[Poly, str]:
     p = dict(a)
     for m, c in b.items():
         _add(p, m, -c)
-    if max((sum(k for _, k in m) for m in p), default=0) > MAX_DEGREE:
+    if _degree(p) > MAX_DEGREE:
         raise _Unusable
     return p, op
 
@@ -175,13 +166,24 @@ def _times(p: Poly, q: Poly) -> Poly:
 # --------------------------------------------------------------------------- one case
 
 
-def _case_empty(literals: list[tuple[Poly, str]]) -> bool:
-    box = _bounds(literals)
+def _case_empty(case: list[Node], atoms: dict[tuple, int]) -> bool:
+    """Whether the conjunction of the case's comparisons has no model. Only literals that
+    can bound variables are expanded first; the others only once all their variables are
+    bounded (most obligations stop here, cheaply)."""
+    shaped = [a for a in case if _bound_shaped(a)]
+    shaped_literals = _read(shaped, atoms)
+    box = _bounds(shaped_literals)
     if box is None:
         return True  # the bound literals alone contradict each other
-    usable = [(p, rel) for p, rel in literals if all(v in box for m in p for v, _ in m)]
-    if not usable:
+    if not box:
         return False
+    ids = {id(a) for a in shaped}
+    rest = [a for a in case if id(a) not in ids
+            and all(atoms.get(v.key) in box for v in free_vars(a).values())]
+    usable = [(p, rel) for p, rel in _read(rest, atoms) + [x for x in shaped_literals if _degree(x[0]) > 1]
+              if all(v in box for m in p for v, _ in m)]
+    if not usable:
+        return False  # only bounds of single variables: no piece of their box excludes them
     pieces, examined = [box], 0
     while pieces:
         piece = pieces.pop()
@@ -200,6 +202,31 @@ def _case_empty(literals: list[tuple[Poly, str]]) -> bool:
         mid = (lo + hi) / 2
         pieces.extend(({**piece, v: (mid, hi)}, {**piece, v: (lo, mid)}))
     return True
+
+
+def _degree(p: Poly) -> int:
+    return max((sum(k for _, k in m) for m in p), default=0)
+
+
+def _bound_shaped(atom: Node) -> bool:
+    """A comparison of one variable, or of a sum of one-variable terms with a constant."""
+    names = free_vars(atom)
+    if len(names) <= 1:
+        return True
+    for side, other in (atom.args, atom.args[::-1]):
+        if side.op == "+" and not free_vars(other) and all(len(free_vars(t)) <= 1 for t in side.args):
+            return True
+    return False
+
+
+def _read(case: list[Node], atoms: dict[tuple, int]) -> list[tuple[Poly, str]]:
+    out = []
+    for atom in case:
+        try:
+            out.append(_literal(atom, atoms))
+        except (_Unusable, RecursionError, ZeroDivisionError):
+            continue  # dropped: the case gets more models, never fewer
+    return out
 
 
 def _bounds(literals: list[tuple[Poly, str]]) -> Box | None:
@@ -230,9 +257,10 @@ def _negated(p: Poly) -> Poly:
 
 
 def _literal_bounds(p: Poly):
-    """Bounds (v, lo, hi) that `p >= 0` implies: p linear in one variable, or p a negated
-    axis-parallel ellipsoid `s - sum a_i (x_i - c_i)^2` (then each |x_i - c_i| <= sqrt(s/a_i));
-    a pair lo > hi says p >= 0 has no solution at all."""
+    """Bounds (v, lo, hi) that `p >= 0` implies: p linear in one variable, or p of the form
+    `s - sum a_i (x_i - c_i)^(n_i)` with every a_i > 0 and n_i even (a ball, an axis-parallel
+    ellipsoid, `(x-9)^2 + (y-20)^20 <= 4`): then each |x_i - c_i| <= (s/a_i)^(1/n_i).
+    A pair lo > hi says p >= 0 has no solution at all."""
     k = p.get((), Fraction(0))
     rest = {m: c for m, c in p.items() if m}
     if len(rest) == 1:
@@ -240,32 +268,56 @@ def _literal_bounds(p: Poly):
         if len(m) == 1 and m[0][1] == 1:
             v, root = m[0][0], -k / a
             return [(v, root, None) if a > 0 else (v, None, root)]
-    squares, linear = {}, {}
+    parts: dict[int, dict[int, Fraction]] = {}  # variable -> exponent -> coefficient in -p
     for m, c in rest.items():
-        if len(m) != 1 or m[0][1] > 2:
+        if len(m) != 1:
             return []
-        (v, e), = m
-        (squares if e == 2 else linear)[v] = c
-    if not squares or any(c >= 0 for c in squares.values()) or not set(linear) <= set(squares):
+        ((v, e),) = m
+        parts.setdefault(v, {})[e] = -c
+    shapes, s = {}, k
+    for v, f in parts.items():
+        n = max(f)
+        a = f[n]
+        if n % 2 or a <= 0:
+            return []
+        c = -f.get(n - 1, Fraction(0)) / (n * a)
+        if any(f.get(j, 0) != a * comb(n, j) * (-c) ** (n - j) for j in range(1, n + 1)):
+            return []  # not a*(x - c)^n once its constant a*c^n is moved to s
+        shapes[v] = (a, c, n)
+        s += a * c**n
+    if not shapes:
         return []
-    weights = {v: -c for v, c in squares.items()}  # p = k + sum(-a_i x_i^2 + e_i x_i)
-    centre = {v: linear.get(v, Fraction(0)) / (2 * a) for v, a in weights.items()}
-    s = k + sum(a * centre[v] ** 2 for v, a in weights.items())  # sum a_i (x_i - c_i)^2 <= s
     if s < 0:
-        v = next(iter(weights))
-        return [(v, Fraction(1), Fraction(0))]  # empty
+        return [(next(iter(shapes)), Fraction(1), Fraction(0))]  # no solution
     out = []
-    for v, a in weights.items():
-        r = _sqrt_up(s / a)
-        out.append((v, centre[v] - r, centre[v] + r))
+    for v, (a, c, n) in shapes.items():
+        r = _root_up(s / a, n)
+        out.append((v, c - r, c + r))
     return out
 
 
-def _sqrt_up(q: Fraction) -> Fraction:
-    """A rational upper bound of sqrt(q), within 2^-40 relative to q's scale."""
-    n, d = q.numerator, q.denominator
+def _root_up(q: Fraction, n: int) -> Fraction:
+    """A rational upper bound of q^(1/n) (q >= 0), within 2^-40 relative to q's scale."""
     scale = 1 << 40
-    return Fraction(isqrt(n * d * scale * scale) + 1, d * scale)
+    m = q.numerator * q.denominator ** (n - 1) * scale**n
+    return Fraction(_iroot(m, n) + 1, q.denominator * scale)
+
+
+def _iroot(m: int, n: int) -> int:
+    """The largest r with r^n <= m (Newton's method from above, then checked)."""
+    if m < 2:
+        return m
+    x = 1 << -(-m.bit_length() // n)
+    while True:
+        y = ((n - 1) * x + m // x ** (n - 1)) // n
+        if y >= x:
+            break
+        x = y
+    while x**n > m:
+        x -= 1
+    while (x + 1) ** n <= m:
+        x += 1
+    return x
 
 
 def _widest(piece: Box, usable) -> int | None:

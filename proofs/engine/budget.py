@@ -16,11 +16,6 @@ DEFAULT_RLIMIT = 2_000_000
 QUICK_SHARE = 40  # the per-branch report beside a refutation: 1/40 of the full budget
 PROJECTED_CEX_SHARE = 4  # raw forms of an obligation whose projection has a counterexample
 PLAN_SHARE = 10  # each trial of an ODE cut chain's link (proofs/engine/odeplan.py)
-# z3 first gets this share of an obligation form's units; only if that does not decide it is
-# the form tried by exact interval arithmetic over a box (proofs/core/boxes.py), then by z3
-# with the whole budget. Boxes first would cost ~5 ms a form over the library, where z3
-# decides almost every form within a tenth.
-BOXES_AFTER_SHARE = 10
 # A search for a violating run explores a whole unrolled program at once: it gets 16 times
 # an obligation's budget (the library's hardest run, sbs.predictive_multi, needs ~4.6M units
 # under its scenario; sbs.ctrl2_last_wins ~2.7M over a two-boundary family).

@@ -14,7 +14,7 @@ from certiloop.proofs.core.solver import SolverAnswer, check_valid
 from certiloop.proofs.core.vcgen import Obligation
 from certiloop.proofs.core.verdicts import ObligationResult, judge
 from certiloop.proofs.core.weaken import weakenings
-from certiloop.proofs.engine.budget import BOXES_AFTER_SHARE, PROJECTED_CEX_SHARE, Budget
+from certiloop.proofs.engine.budget import PROJECTED_CEX_SHARE, Budget
 from certiloop.proofs.engine.polysize import nonlinear_size
 
 
@@ -70,9 +70,9 @@ def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: b
 def _check(formula: Node, budget: Budget) -> SolverAnswer:
     """z3 on the formula, unless its nonlinear size passes the budget's bound even once its
     constants are folded: then `unknown` at once (spent -1), since z3's resource count would
-    not cover most of that work. What z3 does not decide with a tenth of the units goes to
-    exact interval arithmetic over a box (proofs/core/boxes.py) before the full budget: z3's
-    nonlinear procedure can take half a minute on a claim about a small ball."""
+    not cover most of that work. Exact interval arithmetic over a box (proofs/core/boxes.py)
+    is tried first: z3's nonlinear procedure can take half a minute on a claim about a small
+    ball that the box decides in milliseconds."""
     size = nonlinear_size(formula)
     if size > budget.max_nonlinear_size:
         size = nonlinear_size(simplify(formula))  # rare: only above the bound
@@ -80,14 +80,9 @@ def _check(formula: Node, budget: Budget) -> SolverAnswer:
         return SolverAnswer("unknown", f"not given to z3: its nonlinear arithmetic is too large for the "
                             f"deterministic budget (size {size:,} > {budget.max_nonlinear_size:,}: mixed "
                             "monomials x degree x coefficient bits)", spent=-1)
-    first = check_valid(formula, budget.share(BOXES_AFTER_SHARE).rlimit, budget.wall_s)
-    if first.status != "unknown" or budget.rlimit <= BOXES_AFTER_SHARE:
-        return first  # z3 is deterministic: the same search would end the same way with more units
     if boxes.proves(formula):
-        return SolverAnswer("unsat", spent=first.spent, backend="intervals")
-    answer = check_valid(formula, budget.rlimit, budget.wall_s)
-    answer.spent += first.spent
-    return answer
+        return SolverAnswer("unsat", backend="intervals")
+    return check_valid(formula, budget.rlimit, budget.wall_s)
 
 
 def _by_cases(ob: Obligation, budget: Budget, start: float) -> ObligationResult | None:
