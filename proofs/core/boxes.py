@@ -22,12 +22,13 @@ from __future__ import annotations
 from fractions import Fraction
 from math import comb
 
-from certiloop.models.lang.terms import REAL, Node, free_vars
+from certiloop.models.lang.terms import REAL, Node
 
 MAX_CASES = 32  # disjunctive cases of not-F: more, and the formula is left to z3
 MAX_TERMS = 600  # monomials of one literal's polynomial (expanded, or around a box's centre)
 MAX_DEGREE = 24  # a literal of higher total degree is not used (nor higher powers expanded)
 MAX_BOXES = 64  # pieces examined per case: the partition's deterministic budget
+MAX_WORK = 8_000  # centred-form monomials computed per case (a quadratic in 6 variables: ~150 a piece)
 
 Monomial = tuple[tuple[int, int], ...]  # (atom index, exponent), sorted by index
 Poly = dict[Monomial, Fraction]
@@ -41,13 +42,16 @@ class _Unusable(Exception):
 
 def proves(formula: Node) -> bool:
     """True only if the formula is valid by the box argument above; False says nothing."""
-    if not _nonlinear(formula):
-        return False  # linear arithmetic: z3 is complete and fast there
-    cases = _dnf(formula, positive=False)
-    if cases is None:
+    try:
+        if not _nonlinear(formula):
+            return False  # linear arithmetic: z3 is complete and fast there
+        cases = _dnf(formula, positive=False)
+        if cases is None:
+            return False
+        atoms: dict[tuple, int] = {}
+        return all(_case_empty(case, atoms) for case in cases)  # no case at all: not-F is false
+    except RecursionError:
         return False
-    atoms: dict[tuple, int] = {}
-    return all(_case_empty(case, atoms) for case in cases)  # no case at all: not-F is false
 
 
 # --------------------------------------------------------------------------- reading not-F
@@ -81,7 +85,7 @@ def _dnf(n: Node, positive: bool) -> list[list[Node]] | None:
         return out
     if op in ("true", "false"):
         return [[]] if (op == "true") == positive else []
-    if op == "cmp" and n.args[0].sort.is_numeric and n.args[1].sort.is_numeric:
+    if op == "cmp" and n.payload in _FLIP and n.args[0].sort.is_numeric and n.args[1].sort.is_numeric:
         return [[n if positive else Node("cmp", n.args, n.sort, _FLIP[n.payload])]]
     return [[]]  # anything else is read as `true`: an over-approximation
 
@@ -178,20 +182,19 @@ def _case_empty(case: list[Node], atoms: dict[tuple, int]) -> bool:
     if not box:
         return False
     ids = {id(a) for a in shaped}
-    rest = [a for a in case if id(a) not in ids
-            and all(atoms.get(v.key) in box for v in free_vars(a).values())]
+    rest = [a for a in case if id(a) not in ids and all(atoms.get(k) in box for k in _unknowns(a))]
     usable = [(p, rel) for p, rel in _read(rest, atoms) + [x for x in shaped_literals if _degree(x[0]) > 1]
               if all(v in box for m in p for v, _ in m)]
-    if not usable:
-        return False  # only bounds of single variables: no piece of their box excludes them
-    pieces, examined = [box], 0
+    if all(_degree(p) <= 1 for p, _ in usable):
+        return False  # linear over a box: z3 decides it at once, and no bound is curved
+    pieces, examined, work = [box], 0, [0]
     while pieces:
         piece = pieces.pop()
         examined += 1
-        if examined > MAX_BOXES:
+        if examined > MAX_BOXES or work[0] > MAX_WORK:
             return False
         try:
-            if any(_false_on(p, rel, piece) for p, rel in usable):
+            if any(_false_on(p, rel, piece, work) for p, rel in usable):
                 continue
         except _Unusable:
             return False
@@ -209,14 +212,31 @@ def _degree(p: Poly) -> int:
 
 
 def _bound_shaped(atom: Node) -> bool:
-    """A comparison of one variable, or of a sum of one-variable terms with a constant."""
-    names = free_vars(atom)
-    if len(names) <= 1:
+    """A comparison of one unknown (a variable, or a term read as one), or of a sum of
+    one-unknown terms with a constant."""
+    if len(_unknowns(atom)) <= 1:
         return True
     for side, other in (atom.args, atom.args[::-1]):
-        if side.op == "+" and not free_vars(other) and all(len(free_vars(t)) <= 1 for t in side.args):
+        if side.op == "+" and not _unknowns(other) and all(len(_unknowns(t)) <= 1 for t in side.args):
             return True
     return False
+
+
+def _unknowns(n: Node, out: set | None = None) -> set:
+    """The keys of the terms _expand reads as variables, without expanding anything."""
+    out = set() if out is None else out
+    op = n.op
+    if op == "const":
+        return out
+    power = op == "^" and isinstance(n.payload, int) and 0 <= n.payload <= MAX_DEGREE
+    if op in ("+", "*", "neg", "cmp") or power:
+        for a in n.args:
+            _unknowns(a, out)
+    elif op == "/" and n.sort == REAL and n.args[1].op == "const" and n.args[1].payload:
+        _unknowns(n.args[0], out)
+    else:
+        out.add(n.key)
+    return out
 
 
 def _read(case: list[Node], atoms: dict[tuple, int]) -> list[tuple[Poly, str]]:
@@ -330,8 +350,8 @@ def _widest(piece: Box, usable) -> int | None:
     return best
 
 
-def _false_on(p: Poly, rel: str, piece: Box) -> bool:
-    lo, hi = _enclosure(p, piece)
+def _false_on(p: Poly, rel: str, piece: Box, work: list[int]) -> bool:
+    lo, hi = _enclosure(p, piece, work)
     if rel == ">=":
         return hi < 0
     if rel == ">":
@@ -341,7 +361,7 @@ def _false_on(p: Poly, rel: str, piece: Box) -> bool:
     return lo == hi == 0  # "!=": p is 0 on the whole piece
 
 
-def _enclosure(p: Poly, piece: Box) -> tuple[Fraction, Fraction]:
+def _enclosure(p: Poly, piece: Box, work: list[int]) -> tuple[Fraction, Fraction]:
     """[lo, hi] containing p over the piece: p re-expanded around the piece's centre
     (x = c + d, |d| <= r), each monomial in d bounded by its coefficient times r's powers."""
     centred: Poly = {}
@@ -356,6 +376,7 @@ def _enclosure(p: Poly, piece: Box) -> tuple[Fraction, Fraction]:
                 if coeff and (j == 0 or r):
                     binomial[((v, j),) if j else ()] = Fraction(coeff)
             term = _times(term, binomial)
+        work[0] += len(term)
         for mono, coeff in term.items():
             _add(centred, mono, coeff)
     lo = hi = centred.pop((), Fraction(0))
