@@ -685,3 +685,16 @@ def test_deep_sweep_random_seed():
         f = assemble(d, region.hyps, random_goal(d, region, samples))
         if boxes.proves(f):
             check_proved_claim_is_valid(d, region, samples, f)
+
+
+@given(st.integers(0, 10**60), st.integers(1, 24))
+def test_integer_roots_are_floors(m, n):
+    r = boxes._iroot(m, n)
+    assert r**n <= m < (r + 1) ** n
+
+
+@given(st.fractions(min_value=0, max_value=10**12, max_denominator=10**9), st.sampled_from([2, 4, 6, 20]))
+def test_rational_roots_bound_from_above_and_are_exact_when_they_can_be(q, n):
+    r = boxes._root_up(F(q), n)
+    assert r**n >= q
+    assert boxes._root_up(r**n, n) == r  # an exact root is returned as it is

@@ -27,8 +27,8 @@ from certiloop.models.lang.terms import REAL, Node
 MAX_CASES = 32  # disjunctive cases of not-F: more, and the formula is left to z3
 MAX_TERMS = 600  # monomials of one literal's polynomial (expanded, or around a box's centre)
 MAX_DEGREE = 24  # a literal of higher total degree is not used (nor higher powers expanded)
-MAX_BOXES = 64  # pieces examined per case: the partition's deterministic budget
-MAX_WORK = 8_000  # centred-form monomials computed per case (a quadratic in 6 variables: ~150 a piece)
+MAX_BOXES = 16  # pieces examined per case: the partition's deterministic budget
+MAX_WORK = 2_000  # centred-form monomials computed per case (a quadratic in 6 variables: ~150 a piece)
 
 Monomial = tuple[tuple[int, int], ...]  # (atom index, exponent), sorted by index
 Poly = dict[Monomial, Fraction]
@@ -317,10 +317,12 @@ def _literal_bounds(p: Poly):
 
 
 def _root_up(q: Fraction, n: int) -> Fraction:
-    """A rational upper bound of q^(1/n) (q >= 0), within 2^-40 relative to q's scale."""
+    """A rational upper bound of q^(1/n) (q >= 0), within 2^-40 relative to q's scale; the
+    root itself when it is a rational with such a denominator."""
     scale = 1 << 40
     m = q.numerator * q.denominator ** (n - 1) * scale**n
-    return Fraction(_iroot(m, n) + 1, q.denominator * scale)
+    r = _iroot(m, n)
+    return Fraction(r if r**n == m else r + 1, q.denominator * scale)  # exact when the root is
 
 
 def _iroot(m: int, n: int) -> int:
