@@ -25,7 +25,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).parent))
 from common import RESULTS  # noqa: E402
 
-from certiloop.models.kyx import read_entries  # noqa: E402
+from certiloop.models.kyx import KyxError, read_entries  # noqa: E402
 
 CLI = [sys.executable, "-m", "certiloop.proofs.cli"]
 SAFETY_NET_S = 120  # a wall-clock guard per process only: reaching it counts as unknown
@@ -71,8 +71,6 @@ def entry_verdict(archive: str, name: str, invalid: bool, rlimit: int, examples:
 def read_only(archives: list[str]) -> int:
     from collections import Counter
 
-    from certiloop.models.kyx import KyxError
-
     parsed, entries, read, reasons = 0, 0, 0, Counter()
     for archive in archives:
         try:
@@ -105,8 +103,15 @@ def main() -> int:
     if args.read_only:
         return read_only(args.valid + args.invalid)
     rows: list[dict] = []
+    unread: dict[str, str] = {}
     for archive, invalid in [(a, False) for a in args.valid] + [(a, True) for a in args.invalid]:
-        for entry in read_entries(Path(archive).read_text(encoding="utf-8"), archive):
+        try:
+            entries = read_entries(Path(archive).read_text(encoding="utf-8", errors="replace"), archive)
+        except KyxError as exc:  # the whole archive is refused (e.g. hybrid games): say so, go on
+            unread[archive] = str(exc)
+            print(f"not read       {archive}: {exc}", flush=True)
+            continue
+        for entry in entries:
             if args.only and args.only not in entry.name:
                 continue
             cpu = _children_cpu()
@@ -142,7 +147,7 @@ def main() -> int:
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / f"{args.record}.json").write_text(json.dumps({
         "benchmark": "kyx", "rlimit": args.rlimit, "date": time.strftime("%Y-%m-%d"),
-        "machine": "2-core sandbox shared with other jobs", "totals": totals,
+        "machine": "2-core sandbox shared with other jobs", "totals": totals, "not_read": unread,
         "rows": [{k: r.get(k) for k in ("archive", "entry", "expected", "verdict", "seconds", "engine_s",
                                             "cpu_s")}
                  for r in rows],
