@@ -186,12 +186,16 @@ def solvable(ode: ODE) -> bool:
 #            (Darboux: (p*exp(-∫g))' = (p' - g*p)*exp(-∫g), so the sign of p never changes;
 #            when p' - g*p is identically 0 the premise is decided here, exactly, by sympy)
 #   barrier  p = 0 -> p' > 0, for > only (p > 0 until a first zero, where p' <= 0)
+#   nonzero  p != 0, p a polynomial                                  inside the domain
+#            (p is continuous along a flow that never leaves the region where p != 0, so by
+#            the intermediate value theorem p keeps the sign it starts with; for = and !=
+#            the atom holds trivially: no flow starts on p = 0, or p != 0 throughout)
 # An atom may be guarded, `C -> a op b`, when C does not mention the ODE's variables: C is
 # then constant along the flow, so the guarded atom is proved by proving `a op b` under C
 # (premise `C -> premise`; where C is false the atom holds throughout). KeYmaera X's
 # `v'=0 -> v=old(v)` annotations are of this kind once v' is read as its right-hand side.
 
-METHODS = ("dI", "dbx", "barrier")
+METHODS = ("dI", "dbx", "barrier", "nonzero")
 
 
 @dataclass(frozen=True)
@@ -314,6 +318,10 @@ def atom_premise(atom: Node, ode: ODE, method: str, cofactor: Node | None = None
         if op != ">":
             raise ValueError(f"the barrier rule proves strict inequalities only, not `{atom}`")
         return Implies(cmp("==", p, 0), cmp(">", dp, 0))
+    if method == "nonzero":
+        if has_division(p):  # a quotient need not be continuous: its denominator may vanish
+            raise ValueError(f"the nonzero rule needs a polynomial, not `{atom}`")
+        return cmp("!=", p, 0)
     raise ValueError(f"unknown ODE rule {method!r}")
 
 

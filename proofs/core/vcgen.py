@@ -282,10 +282,14 @@ class VCGen:
             cond = atom_premise(step.atom, p, step.method, step.cofactor)
             if cond is not None:
                 self.emit(after.assume(*(after.value(f) for f in known)).via(f"ODE {step.method} {n}", "dI"),
-                          cond, "derivative condition", step=(p.key, n, "premise"))
+                          cond, PREMISE_NAMES.get(step.method, "derivative condition"),
+                          step=(p.key, n, "premise"))
             known.append(step.atom)
         k(after.assume(*(after.value(f) for f in known)).via("ODE dC/dW", "dC"))
 
+
+# what a link's premise is called in the proof tree (the nonzero rule asks no derivative)
+PREMISE_NAMES = {"nonzero": "never zero in the domain"}
 
 # which incomplete rule to blame when several lie on a path: an ODE that lost information
 # explains a failure downstream better than the loop around it

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq
-from certiloop.models.lang.terms import And, ModelError, Node, free_vars
+from certiloop.models.lang.terms import And, ModelError, Node, cmp, free_vars
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.odes import (
     OdeStep,
@@ -78,11 +78,17 @@ def _usable(atom: Node, ode: ODE) -> bool:
 
 def candidates(theorem: Theorem, ode: ODE) -> list[Node] | None:
     """Atoms to build the ODE's chain from, or None to leave the ODE to the core's default."""
+    names = {v.payload for v in ode.variables}
     if ode.invariants:
-        return [a for inv in ode.invariants for a in conjuncts(inv)]
+        # the author's atoms, then the guarantee's: once those are known, the nonzero rule can
+        # show the guarantee's sign is kept (Hamiltonian System 1: x <= 0 under two level sets)
+        annotated = [a for inv in ode.invariants for a in conjuncts(inv)]
+        seen = {a.key for a in annotated}
+        extra = [a for a in map(_as_comparison, conjuncts(theorem.guarantee))
+                 if a.key not in seen and set(free_vars(a)) & names and _usable(a, ode)]
+        return annotated + list({a.key: a for a in extra}.values())
     if solvable(ode):
         return None
-    names = {v.payload for v in ode.variables}
     seen: dict[tuple, Node] = {}
     # the search's atoms (none for an affine system) first: each is a Darboux identity, proved
     # without a premise, so it needs no earlier link and gives every later link one more fact
@@ -92,6 +98,17 @@ def candidates(theorem: Theorem, ode: ODE) -> list[Node] | None:
             if atom.key not in seen and set(free_vars(atom)) & names and _usable(atom, ode):
                 seen[atom.key] = atom
     return list(seen.values()) or None
+
+
+_NEGATED = {"<=": ">", "<": ">=", ">=": "<", ">": "<=", "==": "!=", "!=": "=="}
+
+
+def _as_comparison(atom: Node) -> Node:
+    """`!(a op b)` as the comparison it means (`!(x > 0)` is `x <= 0`); anything else as is."""
+    inner = atom.args[0] if atom.op == "not" else None
+    if inner is not None and inner.op == "cmp" and inner.args[0].sort.is_numeric:
+        return cmp(_NEGATED[inner.payload], *inner.args)
+    return atom
 
 
 def rule_options(atom: Node, ode: ODE) -> list[OdeStep]:
@@ -110,6 +127,8 @@ def rule_options(atom: Node, ode: ODE) -> list[OdeStep]:
         options.append(OdeStep(atom, "dbx", rational))
     if atom_polynomial(atom)[1] == ">":
         options.append(OdeStep(atom, "barrier"))
+    if not has_division(atom):
+        options.append(OdeStep(atom, "nonzero"))
     return options
 
 

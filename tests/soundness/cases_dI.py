@@ -432,3 +432,53 @@ def w_param_rate_true():
 def _():
     # TRUE: x >= 1 with derivative b x >= 0 inside the domain x >= 0 (b >= 0).
     return T("dI-rate", And(x == 1, b >= 0), ode({x: b * x}, x >= 0, invariants=[x >= 1]), x >= 1)
+
+
+# --------------------------------------------------------------------------- the nonzero rule (sign kept)
+def saddle(x0, y0, tau):
+    """x' = y, y' = x from (x0, y0): x = x0 cosh τ + y0 sinh τ, y = x0 sinh τ + y0 cosh τ."""
+    return (x0 * math.cosh(tau) + y0 * math.sinh(tau), x0 * math.sinh(tau) + y0 * math.cosh(tau))
+
+
+def _cross_saddle(x0, y0, tau):
+    end = ivp(lambda _t, z: [z[1], z[0]], [x0, y0], tau)
+    check(np.allclose(end, saddle(x0, y0, tau), atol=1e-8), end, saddle(x0, y0, tau))
+
+
+def w_saddle_branch_true():
+    # TRUE: from x = 0, y >= 1, y = y0 cosh τ >= 1 for all τ.
+    _cross_saddle(0.0, 1.5, 2.0)
+    g = rng("dI-saddle")
+    for _ in range(SAMPLES):
+        yy = saddle(0.0, float(rat(g, 1, 4)), float(rat(g, 0, 6)))[1]
+        check(yy >= 0)
+
+
+@case("dI-nonzero-saddle-branch-true", "true", w_saddle_branch_true)
+def _():
+    # TRUE: y^2 - x^2 >= 1 is kept (a first integral), so y never vanishes and keeps its sign;
+    # y' = x has no sign, so only the nonzero rule (or luck) proves y >= 0.
+    return T("dI-nz", And(x == 0, y >= 1), ode({x: y, y: x}, invariants=[y**2 - x**2 >= 1]), y >= 0)
+
+
+def w_saddle_cross_false():
+    # FALSE: from (-1, 1/2), y = -sinh τ + cosh τ / 2 < 0 at τ = 1.
+    _cross_saddle(-1.0, 0.5, 1.0)
+    check(saddle(-1.0, 0.5, 1.0)[1] < -0.4)
+
+
+@case("dI-nonzero-saddle-crossing-false", "false", w_saddle_cross_false)
+def _():
+    # FALSE: the weaker level y^2 - x^2 >= -1 (it does hold) lets y pass through 0.
+    return T("dI-nz-f", And(x == -1, y == Q(1, 2)), ode({x: y, y: x}, invariants=[y**2 - x**2 >= -1]), y >= 0)
+
+
+def w_rise_false():
+    # FALSE: x' = 1 from x = -1 gives x = 1/2 > 0 at τ = 3/2.
+    check(-1 + Q(3, 2) > 0)
+
+
+@case("dI-nonzero-rise-through-zero-false", "false", w_rise_false)
+def _():
+    # FALSE: the annotation y = 2 holds and tells nothing about x, which crosses 0.
+    return T("dI-nz-rise", And(x == -1, y == 2), ode({x: 1, y: 0}, invariants=[y == 2]), x <= 0)

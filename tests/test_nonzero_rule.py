@@ -1,0 +1,84 @@
+"""The nonzero rule: a polynomial that never vanishes inside the domain (and the links proved
+before it) keeps the sign it starts with, so `p >= 0` is invariant even where p' has no sign.
+
+Every proof here is witnessed by scipy integrating the flow from sampled starts; every false
+twin must not prove, and is shown false by integration or by an exact point."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from certiloop.models import And, Iff, Reals, Theorem, ode
+from certiloop.proofs.core.odes import OdeStep, atom_premise
+from certiloop.proofs.core.solver import check_valid
+from certiloop.proofs.core.vcgen import generate
+from certiloop.proofs.engine import Prover
+
+x, y = Reals("x y")
+# x' = y, y' = x: y^2 - x^2 is a first integral, and its level sets y^2 - x^2 = c > 0 have two
+# branches, y > 0 and y < 0; a flow stays on the branch it starts on. y' = x has no sign, so
+# neither dI nor a Darboux cofactor shows y >= 0.
+SADDLE = {x: y, y: x}
+
+
+def verdict(pre, program, post) -> str:
+    with Prover(jobs=1) as p:
+        return p.prove(Theorem("t", pre, program, post), search=False).verdict
+
+
+def min_along(rhs, start, T=2.0, coord=1) -> float:
+    sol = solve_ivp(lambda _t, s: rhs(*s), (0.0, T), np.asarray(start, float), method="DOP853",
+                    rtol=1e-10, atol=1e-12, dense_output=True)
+    assert sol.success
+    return float(sol.sol(np.linspace(0.0, T, 401))[coord].min())
+
+
+def test_premise_is_that_p_never_vanishes_and_quotients_are_refused():
+    saddle = ode(SADDLE)
+    for atom, nonzero in ((y >= 0, y != 0), (x <= 0, x != 0), (x + y > 1, x + y != 1)):
+        premise = atom_premise(atom, saddle, "nonzero")
+        assert check_valid(Iff(premise, nonzero), 100_000).status == "unsat", (atom, premise)
+    with pytest.raises(ValueError, match="polynomial"):
+        atom_premise(x / y >= 0, saddle, "nonzero")  # x/y need not be continuous where y = 0
+
+
+def test_sign_kept_on_one_branch_of_a_level_set_and_witnessed():
+    """From y >= 1, x = 0 the flow keeps y^2 - x^2 >= 1 (annotated, a Darboux identity), hence
+    y != 0, hence y >= 0: proved by the planner's nonzero link, checked by integration."""
+    prog = ode(SADDLE, invariants=[y**2 - x**2 >= 1])
+    assert verdict(And(x == 0, y >= 1), prog, y >= 0) == "proved"
+    for y0 in (1.0, 1.5, 3.0):
+        assert min_along(lambda x, y: [y, x], [0.0, y0]) >= 0.99
+
+
+def test_without_the_separating_invariant_the_sign_claim_is_not_proved():
+    """The weaker level y^2 - x^2 >= -1 lets the flow through y = 0: from (x, y) = (-1, 1/2)
+    y' = x < 0 pushes y below 0, and the claim is false."""
+    prog = ode(SADDLE, invariants=[y**2 - x**2 >= -1])
+    assert verdict(And(x == -1, y == 0.5), prog, y >= 0) != "proved"
+    assert min_along(lambda x, y: [y, x], [-1.0, 0.5], T=1.0) < -0.1  # really false
+
+
+def test_a_flow_through_zero_is_not_proved_by_a_forced_nonzero_link():
+    """x' = 1 from x = -1 crosses x = 0 at t = 1: the link's premise `-x != 0` is false at
+    x = 0 (an exact counterexample), so the planned chain proves nothing."""
+    rise = ode({x: 1, y: 0})
+    premise = atom_premise(x <= 0, rise, "nonzero")
+    answer = check_valid(premise, 1_000_000)
+    assert answer.status == "sat" and answer.model["x"] == 0
+    obs = generate(Theorem("t", x == -1, rise, x <= 0), {rise.key: (OdeStep(x <= 0, "nonzero"),)})
+    with Prover(jobs=1) as p:
+        assert any(r.verdict != "proved" for r in p._discharge(obs, None, p.budget))
+    assert -1 + 1.5 > 0  # x(1.5) = 1/2 violates x <= 0
+
+
+def test_the_domain_separates_the_signs():
+    """[x' = 1 & x != 0] x <= 0 from x = -1/2 holds in dL: the flow must stay in the domain,
+    so it stops before x = 0; the nonzero premise uses exactly that domain."""
+    steps = (OdeStep(x <= 0, "nonzero"),)
+    walled = ode({x: 1, y: 0}, x != 0)
+    obs = generate(Theorem("t", x == -0.5, walled, x <= 0), {walled.key: steps})
+    with Prover(jobs=1) as p:
+        assert all(r.verdict == "proved" for r in p._discharge(obs, None, p.budget))
