@@ -32,8 +32,10 @@ NON_POLYNOMIAL = textwrap.dedent("""
     square = Theorem("np.square", And(x == 1, t == 0), ode({x: t, t: -x}), x <= 1)
     square_inv = Theorem("np.square_inv", And(x >= 1, t == 0),
                          ode({x: x * x, t: 1}, t <= 1, invariants=[x >= 1]), x >= 1)
+    # true (x = 1/(1/x0 + t) >= 1/2 while t <= 1), but the annotation is no invariant and the
+    # guarantee is none either (x' = -x^2 has no sign, the cofactor leaves -1/4 >= 0)
     bad_inv = Theorem("np.bad_inv", And(x >= 1, t == 0),
-                      ode({x: -x * x, t: 1}, t <= 1, invariants=[x >= 1]), x >= 0)
+                      ode({x: -x * x, t: 1}, t <= 1, invariants=[x >= 1]), x >= 0.5)
     # straight-line and false: a genuine counterexample to its one obligation
     step_down = Theorem("np.step_down", x >= 0, assign(x, x - 1), x >= 0)
 """)

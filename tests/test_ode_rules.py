@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from certiloop.models import And, Implies, Reals, Theorem, ode
+from certiloop.models import And, Iff, Implies, Reals, Theorem, ode
 from certiloop.models.lang.terms import ModelError, free_vars
 from certiloop.proofs.core.odes import OdeStep, atom_premise, cofactors, darboux_identity
 from certiloop.proofs.core.solver import check_valid
@@ -72,7 +72,12 @@ def test_quotient_cofactor_leaves_the_remainder_to_prove():
 
 def test_rules_refuse_what_they_cannot_prove_soundly():
     with pytest.raises(ValueError):
-        atom_premise(x >= 0, ode({x: -x}), "barrier")  # p = 0 -> p' > 0 does not show p >= 0
+        atom_premise(x == 0, ode({x: -x}), "barrier")  # a barrier keeps a sign, not a level
+    # for p >= 0 the barrier's premise stays strict (p = 0 -> p' >= 0 would accept -x^2 >= 0
+    # under x' = 1), and x' = -x at x = 0 does not meet it
+    premise = atom_premise(x >= 0, ode({x: -x}), "barrier")
+    assert check_valid(Iff(premise, Implies(x == 0, -x > 0)), 100_000).status == "unsat"
+    assert check_valid(premise, 100_000).status == "sat"
     # a rational cofactor must be continuous along the flow: its premise demands y != 0
     premise = atom_premise(x > 0, ode({x: -x}), "dbx", -1 / y)
     assert "y != 0" in str(premise) and check_valid(premise, 1_000_000).status != "unsat"
@@ -191,7 +196,7 @@ FALSE_CASES = {
     "ghost that does not apply, x' = -x - y^2": (
         x > 0, ode({x: -x - y**2, y: 0}), x > 0, lambda x, y: [-x - y * y, 0], [0.5, 1.0],
         lambda x, y: x > 0),
-    "barrier for >= would be unsound": (x == 0, ode({x: 1}, invariants=[-(x**2) >= 0]), -(x**2) >= 0,
+    "a weak barrier for >= would be unsound": (x == 0, ode({x: 1}, invariants=[-(x**2) >= 0]), -(x**2) >= 0,
                                         lambda x: [1], [0.0], lambda x: -(x**2) >= 0),
     "strict invariant violated at the boundary": (
         x**2 + y**2 <= 1, ode({x: -y, y: x}, invariants=[x**2 + y**2 < 1]), x**2 + y**2 < 1,

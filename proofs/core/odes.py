@@ -185,7 +185,9 @@ def solvable(ode: ODE) -> bool:
 #   dbx g    p' >= g*p (>=, >), p' = g*p (=, !=), g a polynomial      inside the domain
 #            (Darboux: (p*exp(-∫g))' = (p' - g*p)*exp(-∫g), so the sign of p never changes;
 #            when p' - g*p is identically 0 the premise is decided here, exactly, by sympy)
-#   barrier  p = 0 -> p' > 0, for > only (p > 0 until a first zero, where p' <= 0)
+#   barrier  p = 0 -> p' > 0, for > and >= (p > 0 until a first zero, where p' <= 0; p >= 0
+#            until a last time p = 0 before p < 0, where again p' <= 0. The weak premise
+#            p = 0 -> p' >= 0 would be unsound for >=: -x^2 >= 0 under x' = 1)
 #   nonzero  p != 0, p a polynomial                                  inside the domain
 #            (p is continuous along a flow that never leaves the region where p != 0, so by
 #            the intermediate value theorem p keeps the sign it starts with; for = and !=
@@ -315,8 +317,8 @@ def atom_premise(atom: Node, ode: ODE, method: str, cofactor: Node | None = None
         rest = sympy.expand(to_sympy(dp, table) - to_sympy(cofactor, table) * to_sympy(p, table))
         return cmp(">=" if op in (">=", ">") else "==", from_sympy(rest, table), 0)
     if method == "barrier":
-        if op != ">":
-            raise ValueError(f"the barrier rule proves strict inequalities only, not `{atom}`")
+        if op not in (">", ">="):
+            raise ValueError(f"the barrier rule proves inequalities only, not `{atom}`")
         return Implies(cmp("==", p, 0), cmp(">", dp, 0))
     if method == "nonzero":
         if has_division(p):  # a quotient need not be continuous: its denominator may vanish

@@ -125,7 +125,7 @@ def rule_options(atom: Node, ode: ODE) -> list[OdeStep]:
     rational = rational_cofactor(atom, ode)
     if rational is not None:
         options.append(OdeStep(atom, "dbx", rational))
-    if atom_polynomial(atom)[1] == ">":
+    if atom_polynomial(atom)[1] in (">", ">="):
         options.append(OdeStep(atom, "barrier"))
     if not has_division(atom):
         options.append(OdeStep(atom, "nonzero"))

@@ -1,5 +1,6 @@
-"""The nonzero rule: a polynomial that never vanishes inside the domain (and the links proved
-before it) keeps the sign it starts with, so `p >= 0` is invariant even where p' has no sign.
+"""Rules that keep a sign: nonzero (a polynomial that never vanishes inside the domain and
+the links proved before it keeps the sign it starts with, so `p >= 0` is invariant even where
+p' has no sign) and the strict barrier for `p >= 0` (p = 0 -> p' > 0).
 
 Every proof here is witnessed by scipy integrating the flow from sampled starts; every false
 twin must not prove, and is shown false by integration or by an exact point."""
@@ -82,3 +83,38 @@ def test_the_domain_separates_the_signs():
     obs = generate(Theorem("t", x == -0.5, walled, x <= 0), {walled.key: steps})
     with Prover(jobs=1) as p:
         assert all(r.verdict == "proved" for r in p._discharge(obs, None, p.budget))
+
+
+# --------------------------------------------------------------------------- barrier for >=
+# x' = -x - y^3, y' = x - y: on the unit circle d/dt(x^2 + y^2) = -2 + 2x^3 y < 0, yet inside
+# it need not be negative and outside it is positive in places; at radius 4 the flow leaves.
+SPIRAL = {x: -x - y**3, y: x - y}
+
+
+def spiral(_t, s):
+    return [-s[0] - s[1] ** 3, s[0] - s[1]]
+
+
+def test_a_closed_disk_is_kept_by_the_strict_barrier_and_witnessed():
+    prog = ode(SPIRAL, invariants=[x**2 + y**2 <= 1])
+    with Prover(jobs=1) as p:
+        result = p.prove(Theorem("t", x**2 + y**2 <= 0.5, prog, x**2 + y**2 <= 1), search=False)
+    assert result.verdict == "proved"
+    assert any(o.path.startswith("ODE barrier 1") for o in result.obligations)
+    rng = np.random.default_rng(5)
+    for _ in range(8):
+        r, th = 0.5**0.5 * rng.uniform(0, 1), rng.uniform(0, 2 * np.pi)
+        sol = solve_ivp(spiral, (0, 4), [r * np.cos(th), r * np.sin(th)], rtol=1e-10, atol=1e-12,
+                        dense_output=True)
+        xs, ys = sol.sol(np.linspace(0, 4, 401))
+        assert (xs**2 + ys**2).max() <= 1 + 1e-9
+
+
+def test_a_disk_the_flow_leaves_is_not_proved():
+    """Radius 4: at (-2.8, 2.8) d/dt(x^2 + y^2) = -31.36 + 2*(-7.84)*(1 - 7.84) > 0; the
+    boundary premise fails there and integration shows the flow outside the disk."""
+    prog = ode(SPIRAL, invariants=[x**2 + y**2 <= 16])
+    assert verdict(And(x == -2.8, y == 2.8), prog, x**2 + y**2 <= 16) != "proved"
+    sol = solve_ivp(spiral, (0, 0.05), [-2.8, 2.8], rtol=1e-10, atol=1e-12, dense_output=True)
+    xs, ys = sol.sol(np.linspace(0, 0.05, 101))
+    assert (xs**2 + ys**2).max() > 16
