@@ -81,6 +81,7 @@ def _mutants(name):
 
 
 MUTATED = ["sbs.ctrl1", "textbook.train", "textbook.water_tank", "textbook.bouncing_ball"]
+ALL_MUTANTS_TRUE = {"textbook.bouncing_ball"}
 
 
 @pytest.fixture(scope="module")
@@ -102,7 +103,10 @@ def test_prover_and_refuter_never_disagree_on_mutants(prover, name):
             refutation, _ = refute(mutant, Budget())
             assert refutation is None, mutant.name
         killed += result.verdict != "proved"
-    assert total > 0 and killed > 0
+    # every flip of bouncing_ball's tests and domain leaves a true claim (the loop invariant holds
+    # after either branch, whatever the tests pass; an ODE whose domain h < 0 contradicts
+    # h >= 0 never runs), so nothing dies there; elsewhere some mutant must
+    assert total > 0 and (killed > 0 or name in ALL_MUTANTS_TRUE)
 
 
 x, v, a, b, m = Reals("x v a b m")

@@ -86,9 +86,16 @@ def check_solution(rhs: dict, start: dict, solution: dict, s) -> bool:
 
 
 def lie_derivative(f: Node, ode: ODE) -> Node:
-    """The time derivative of the term f along the ODE (non-ODE symbols are constant)."""
+    """The time derivative of the term f along the ODE (non-ODE symbols are constant). An
+    array read whose index the flow moves (`a[x]` under x' = 1) has no derivative we know,
+    so it is refused rather than read as a constant."""
     table = SympyTable()
     e = to_sympy(f, table)
+    moving = {v.payload for v, rhs in ode.eqs if not (rhs.op == "const" and rhs.payload == 0)}
+    for atom in table.atoms():
+        if atom.op != "var" and set(free_vars(atom)) & moving:
+            raise ModelError(f"`{atom}` reads an array where the ODE moves its index: its derivative "
+                             "along the flow is unknown")
     total = sympy.Integer(0)
     for v, rhs in ode.eqs:
         total += sympy.diff(e, table.symbol(v)) * to_sympy(rhs, table)

@@ -27,6 +27,10 @@ class SympyTable:
     def atom(self, s: sympy.Symbol) -> Node:
         return self._back[s]
 
+    def atoms(self) -> list[Node]:
+        """The subterms read as symbols so far."""
+        return list(self._back.values())
+
 
 def _safe(text: str) -> str:
     return "".join(c if c.isalnum() else "_" for c in text)[:24]

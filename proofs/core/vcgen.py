@@ -232,21 +232,15 @@ class VCGen:
 
     def _ode_region(self, p: ODE, st: State) -> None:
         """Wherever the flow may go (any values of its variables inside the domain), its
-        right-hand sides are defined, and the domain everywhere; the differential invariants
-        likewise (each may lean on the domain and the earlier ones)."""
-        if not any(has_division(f) for f in (p.domain, *(f for _, f in p.eqs), *p.invariants)):
+        right-hand sides are defined, and the domain everywhere. (The links of a cut chain are
+        checked defined in _ode_cuts, against the links that really precede them.)"""
+        if not any(has_division(f) for f in (p.domain, *(f for _, f in p.eqs))):
             return
         anywhere = self.havoc(st, {v.payload: v for v in p.variables}, "anywhere the ODE may go").at("ODE")
         flow = And(defined(p.domain), Implies(p.domain, And(*(defined(f) for _, f in p.eqs))))
         if flow.op != "true":
             self.emit(anywhere, flow, "well-defined: right-hand side and domain (no division by 0)",
                       "defined")
-        known, cuts = [p.domain], []
-        for inv in p.invariants:
-            cuts.append(Implies(And(*known), defined(inv)))
-            known.append(inv)
-        if And(*cuts).op != "true":
-            self.emit(anywhere, And(*cuts), "well-defined: differential invariants (no division by 0)")
 
     def _ode(self, p: ODE, st: State, k: Callable[[State], None]) -> None:
         self._ode_region(p, st)
@@ -269,7 +263,9 @@ class VCGen:
 
     def _ode_cuts(self, p: ODE, chain: tuple[OdeStep, ...], st: State, k: Callable[[State], None]) -> None:
         """dC chain: each link holds initially (where the domain does: a flow starts inside
-        it) and its rule's premise holds inside the domain, assuming the earlier links only."""
+        it) and its rule's premise holds inside the domain, assuming the earlier links only.
+        A link that divides is first shown defined there, assuming the same links: a plan may
+        have dropped an annotation that another one's denominator relied on."""
         annotated = {a.key for inv in p.invariants for a in conjuncts(inv)}
         after = self.havoc(st, {v.payload: v for v in p.variables}, "during ODE")
         start = st.assume(st.value(p.domain))
@@ -277,6 +273,10 @@ class VCGen:
         for n, step in enumerate(chain, 1):
             if step.atom.key not in annotated and has_division(step.atom):
                 raise ValueError(f"planned invariant `{step.atom}` divides by a term: not checked defined")
+            if has_division(step.atom):
+                inside = after.assume(*(after.value(f) for f in known)).at(f"ODE {step.method} {n}")
+                self.emit(inside, defined(step.atom), "well-defined: the invariant (no division by 0)",
+                          "defined", step=(p.key, n, "premise"))
             self.emit(start.via(f"ODE {step.method} {n} init", "dI-init"), step.atom, "holds initially",
                       step=(p.key, n, "init"))
             cond = atom_premise(step.atom, p, step.method, step.cofactor)
