@@ -275,8 +275,10 @@ class VCGen:
                 raise ValueError(f"planned invariant `{step.atom}` divides by a term: not checked defined")
             if has_division(step.atom):
                 inside = after.assume(*(after.value(f) for f in known)).at(f"ODE {step.method} {n}")
+                # kind safety, not defined: an ill-defined annotation is the proof's failure,
+                # not a division in the claim itself
                 self.emit(inside, defined(step.atom), "well-defined: the invariant (no division by 0)",
-                          "defined", step=(p.key, n, "premise"))
+                          step=(p.key, n, "premise"))
             self.emit(start.via(f"ODE {step.method} {n} init", "dI-init"), step.atom, "holds initially",
                       step=(p.key, n, "init"))
             cond = atom_premise(step.atom, p, step.method, step.cofactor)
