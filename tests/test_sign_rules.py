@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
 from certiloop.models import And, Iff, Reals, Theorem, ode
@@ -118,3 +120,53 @@ def test_a_disk_the_flow_leaves_is_not_proved():
     sol = solve_ivp(spiral, (0, 0.05), [-2.8, 2.8], rtol=1e-10, atol=1e-12, dense_output=True)
     xs, ys = sol.sol(np.linspace(0, 0.05, 101))
     assert (xs**2 + ys**2).max() > 16
+
+
+# --------------------------------------------------------------------------- properties
+# x' = c0 + c1 x + c2 x^2 + c3 x^3 (y rides along, y' = 0): whatever a forced barrier or nonzero
+# link proves about `x - a >= 0` from x = x0 must hold along the flow, integrated by scipy (up to
+# T = 1, or until |x| passes 1e6: a blow-up ends the run; inside a domain, until it is left).
+coefficient = st.integers(-3, 3)
+point = st.fractions(-2, 2, max_denominator=4)
+
+
+def _forced_all_proved(pre, prog, atom, method) -> bool:
+    obs = generate(Theorem("t", pre, prog, atom), {prog.key: (OdeStep(atom, method),)})
+    with Prover(jobs=1) as p:
+        return all(r.verdict == "proved" for r in p._discharge(obs, None, p.budget))
+
+
+def _run(cs, x0, stay=lambda x: True, T=1.0):
+    """x along the flow from x0 until T, a blow-up, or the first sample outside `stay`."""
+    rhs = lambda _t, s: [cs[0] + cs[1] * s[0] + cs[2] * s[0] ** 2 + cs[3] * s[0] ** 3]  # noqa: E731
+    blow = lambda _t, s: abs(s[0]) - 1e6  # noqa: E731
+    blow.terminal = True
+    sol = solve_ivp(rhs, (0.0, T), [float(x0)], method="DOP853", rtol=1e-10, atol=1e-12,
+                    dense_output=True, events=blow)
+    xs = sol.sol(np.linspace(0.0, sol.t[-1], 401))[0]
+    inside = [stay(v) for v in xs]
+    return xs[: inside.index(False)] if False in inside else xs
+
+
+@given(st.lists(coefficient, min_size=4, max_size=4), point, st.fractions(0, 2, max_denominator=4))
+@settings(max_examples=30)
+def test_whatever_the_barrier_proves_about_a_half_line_holds_along_the_flow(cs, a, above):
+    x0 = a + above
+    prog = ode({x: cs[0] + cs[1] * x + cs[2] * x**2 + cs[3] * x**3, y: 0})
+    if _forced_all_proved(x == x0, prog, x - a >= 0, "barrier"):
+        assert sum(c * a**k for k, c in enumerate(cs)) > 0  # the premise: x' > 0 at x = a
+        assert (_run(cs, x0) >= float(a) - 1e-7).all()
+
+
+@given(st.lists(coefficient, min_size=4, max_size=4), point, st.fractions(-1, 1, max_denominator=4),
+       st.fractions(0, 2, max_denominator=4))
+@settings(max_examples=30)
+def test_whatever_nonzero_proves_inside_a_domain_holds_along_the_flow(cs, a, gap, above):
+    """Domain x >= b: where b > a it excludes x = a and the link is proved from any start in
+    it; where b <= a it does not, and the link must not be proved (x = a is in the domain)."""
+    b, x0 = a + gap, a + gap + above
+    prog = ode({x: cs[0] + cs[1] * x + cs[2] * x**2 + cs[3] * x**3, y: 0}, x >= b)
+    proved = _forced_all_proved(x == x0, prog, x - a >= 0, "nonzero")
+    assert proved == (b > a)
+    if proved:
+        assert (_run(cs, x0, stay=lambda v: v >= float(b) - 1e-12) >= float(a)).all()
