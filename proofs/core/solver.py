@@ -12,13 +12,33 @@ except ImportError as exc:  # pragma: no cover - exercised by the CLI's missing-
     raise ImportError("z3 is not installed: pip install z3-solver") from exc
 
 from certiloop.models.lang.terms import BOOL, REAL, Node
+from certiloop.proofs.core import isolated
+from certiloop.proofs.core.answers import SolverAnswer
 from certiloop.proofs.core.interval import Interval
+from certiloop.proofs.core.onepoint import eliminate_defined
 from certiloop.proofs.core.simplify import simplify
 from certiloop.proofs.core.z3terms import Z3Translator
 
 
 def _quantifier_free(n: Node) -> bool:
     return n.op not in ("forall", "exists") and all(_quantifier_free(a) for a in n.args)
+
+
+def _no_sorts(n: Node) -> bool:
+    """Only numbers and truth values (a model of them is plain values, no z3 handles)."""
+    return all(s.sort.is_numeric or s.sort == BOOL for s in _symbols(n))
+
+
+def _nonlinear(n: Node) -> bool:
+    """A product of two terms that are not constants, a power or a division by a variable."""
+    def moving(x: Node) -> bool:
+        return x.op != "const"
+
+    if n.op == "*" and sum(1 for a in n.args if moving(a)) >= 2:
+        return True
+    if (n.op == "/" and moving(n.args[1])) or (n.op == "^" and moving(n.args[0]) and n.payload != 1):
+        return True
+    return any(_nonlinear(a) for a in n.args)
 
 
 def _pure_real(tr: Z3Translator, n: Node) -> bool:
@@ -40,26 +60,46 @@ def _symbols(n: Node) -> list[Node]:
     return out
 
 
-@dataclass
-class SolverAnswer:
-    status: str  # "unsat" | "sat" | "unknown"
-    reason: str = ""
-    model: dict[str, Any] | None = None
-    model_falsifies: bool | None = None  # z3's own evaluation of the formula in its model
-    spent: int = 0  # z3 resource units (rlimit count) the check used
-    backend: str = "z3"  # who decided: z3, or exact interval arithmetic (boxes.py)
-
-
 def check_valid(formula: Node, rlimit: int, wall_s: float = 600.0) -> SolverAnswer:
     """Ask z3 whether `formula` is valid by checking its negation in a fresh context.
 
     `rlimit` (z3 resource units) decides when to give up, so the answer does not depend on
     the machine or its load; `wall_s` is only a safety net against a hung solver, and an
     answer cut off by it says so. Constant comparisons are folded first: z3 can stall on a
-    claim that a false assumption such as `2 <= 1` makes trivially valid."""
+    claim that a false assumption such as `2 <= 1` makes trivially valid; quantified symbols
+    the formula defines by an equation are replaced by their definitions (onepoint.py). A
+    quantified nonlinear check runs in a child with an allocation budget too (isolated.py)."""
     formula = simplify(formula)
     if formula.op == "true":
         return SolverAnswer("unsat")
+    if not _quantifier_free(formula):
+        formula = eliminate_defined(formula)
+    quantified = not _quantifier_free(formula)
+    if quantified and isolated.available() and _nonlinear(formula) and _no_sorts(formula):
+        return isolated.check_in_child(check_here, formula, rlimit, wall_s, max_allocs(rlimit))
+    return check_here(formula, rlimit, wall_s)
+
+
+# The allocation budget of a check that runs in a child (isolated.py), from its unit budget.
+# Calibrated 2026-11 on every quantified nonlinear check of the library's gate and KeYmaera X's
+# archives: a finished check allocates about 320,000 times to start and up to 23 times per unit
+# (the largest: 5.7 million allocations for 494,695 units), while a stall allocates up to 250
+# million times a second without spending units. So twice the worst rate seen, plus the start,
+# for at most UNIT_CAP units: no quantified check that finished needed more than 500,000, and a
+# run search's sixfold unit budget would only let a stall run longer. (Some stalls allocate
+# only 2 million times a second: ACAS X's Theorem 1 before onepoint.py removed its cause.)
+ALLOC_BASE = 10_000_000
+ALLOCS_PER_UNIT = 50
+UNIT_CAP = 2_000_000
+
+
+def max_allocs(rlimit: int) -> int:
+    """z3 allocations a check in a child may make, for a budget of `rlimit` units."""
+    return ALLOC_BASE + ALLOCS_PER_UNIT * min(rlimit, UNIT_CAP)
+
+
+def check_here(formula: Node, rlimit: int, wall_s: float) -> SolverAnswer:
+    """check_valid's answer, from z3 in this process."""
     tr = Z3Translator()
     try:
         return _check(formula, tr, rlimit, wall_s)

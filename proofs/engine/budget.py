@@ -16,10 +16,12 @@ DEFAULT_RLIMIT = 2_000_000
 QUICK_SHARE = 40  # the per-branch report beside a refutation: 1/40 of the full budget
 PROJECTED_CEX_SHARE = 4  # raw forms of an obligation whose projection has a counterexample
 PLAN_SHARE = 10  # each trial of an ODE cut chain's link (proofs/engine/odeplan.py)
-# A search for a violating run explores a whole unrolled program at once: it gets 16 times
-# an obligation's budget (the library's hardest run, sbs.predictive_multi, needs ~4.6M units
-# under its scenario; sbs.ctrl2_last_wins ~2.7M over a two-boundary family).
-REFUTE_FACTOR = 16
+# A search for a violating run explores a whole unrolled program at once: it gets 6 times
+# an obligation's budget (the library's hardest run, sbs.predictive_multi, needs ~4.7M units
+# under its scenario; sbs.ctrl2_last_wins ~2.7M over a two-boundary family; no run of
+# KeYmaera X's archives more than 3.3M). It was 16 times until 2026-11: a search that finds
+# nothing spends all of it, 56 s on ModelPlex's Approximated Robix Static Safety.
+REFUTE_FACTOR = 6
 # Nonlinear size (proofs/engine/polysize.py: mixed monomials x their degree x coefficient bits,
 # the largest over a formula's comparisons of degree 4 and more) above which a formula is not
 # given to z3: there its rlimit stops counting most of the work (nlsat's projections; a

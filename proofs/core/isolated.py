@@ -1,0 +1,99 @@
+"""A z3 check in a child process, bounded by z3's allocation count as well as its units.
+
+Some calls stall where z3's resource count (`rlimit`) does not reach: on quantified nonlinear
+formulas, nlsat's cell projection under `qsat` can run for minutes on a few hundred thousand
+units, and it does not look at z3's timeout either (a 2 s timeout returned after 69 s). z3
+counts every allocation, deterministically, and `memory_max_alloc_count` stops there, but by
+exiting the whole process. So such a check runs in a child forked from a fork server that
+holds no z3 state: the child's count starts at the same value every time, the allocation
+bound is a deterministic budget like the units, and the parent reads the child's exit as
+`unknown`. The child can also be killed, so the wall-clock safety net really ends the call.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+import pickle
+from multiprocessing.connection import Connection
+from typing import Callable
+
+from certiloop.models.lang.terms import Node
+from certiloop.proofs.core.answers import SolverAnswer
+
+Check = Callable[[Node, int, float], SolverAnswer]
+
+MAX_ALLOC_COUNT = 2**32 - 1  # z3's memory_max_alloc_count is an unsigned 32-bit parameter
+ALLOC_EXCEEDED = 113  # z3's exit code when memory_max_alloc_count is passed (ERR_ALLOC_EXCEEDED)
+_context = None
+
+
+def available() -> bool:
+    return "forkserver" in multiprocessing.get_all_start_methods()
+
+
+def check_in_child(check: Check, formula: Node, rlimit: int, wall_s: float,
+                   max_allocs: int) -> SolverAnswer:
+    """`check(formula, rlimit, wall_s)` (z3 in the process it runs in) computed in a child with
+    an allocation budget as well; `unknown`, saying which, when the child passes that budget
+    or the safety net."""
+    receiver, sender = _fork_server().Pipe(duplex=False)
+    child = _fork_server().Process(target=_child, args=(sender, check, formula, rlimit, wall_s, max_allocs),
+                                   daemon=True)
+    try:
+        child.start()
+    except (OSError, ValueError, TypeError, AttributeError, pickle.PicklingError):
+        # no child (out of processes, or a term that does not pickle): check it here instead
+        receiver.close()
+        sender.close()
+        return check(formula, rlimit, wall_s)
+    sender.close()
+    try:
+        if receiver.poll(wall_s + 5):  # the child's z3 has the net as its timeout too
+            try:
+                return receiver.recv()
+            except EOFError:  # the child ended without an answer: z3 exited it
+                pass
+        else:
+            child.kill()
+            return SolverAnswer("unknown", f"wall-clock safety net reached after {wall_s:g} s (z3 stalled "
+                                "where its resource count does not reach, or the machine is overloaded; "
+                                "not a verdict of the budget)", spent=-1)
+    finally:
+        receiver.close()
+        child.join()
+    if child.exitcode == ALLOC_EXCEEDED:
+        return SolverAnswer("unknown", f"allocation budget spent ({max_allocs:,} z3 allocations: z3 "
+                            "stalled where its resource count does not reach)", spent=-1)
+    return SolverAnswer("unknown", f"z3 ended abnormally (exit code {child.exitcode})", spent=-1)
+
+
+def _fork_server():
+    global _context
+    if _context is None:
+        _context = multiprocessing.get_context("forkserver")
+        _context.set_forkserver_preload(["certiloop.proofs.core.solver"])  # z3 imported once, unused
+    return _context
+
+
+def _child(sender: Connection, check: Check, formula: Node, rlimit: int, wall_s: float,
+           max_allocs: int) -> None:
+    import z3
+
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, 1)  # z3 announces the exceeded count on stdout: keep the parent's output clean
+    base = _allocations_so_far()
+    z3.set_param("memory_max_alloc_count", min(base + max_allocs, MAX_ALLOC_COUNT))
+    answer = check(formula, rlimit, wall_s)
+    answer.allocations = _allocations_so_far() - base
+    sender.send(answer)
+    sender.close()
+
+
+def _allocations_so_far() -> int:
+    """z3's allocation count in this process (it is global and only grows)."""
+    import z3
+
+    solver = z3.Solver()
+    solver.check()
+    return int(solver.statistics().get_key_value("num allocs"))

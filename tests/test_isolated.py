@@ -1,0 +1,89 @@
+"""Quantified nonlinear checks run in a child process with a deterministic allocation budget
+(proofs/core/isolated.py): z3 can stall there where neither its resource count nor its timeout
+reaches. The stalling claim below is a certiloop transcription of an obligation of ModelPlex's
+curved ground robot (a circle that avoids the obstacle for every curvature up to Da); its
+negation is satisfiable (w1 = v1 = 0 and xr3, yr3 on the obstacle), yet z3 5.4 stops counting
+units after about 170,000 and returns minutes later."""
+
+import time
+from fractions import Fraction
+
+import pytest
+
+from certiloop.models.lang.terms import And, Exists, ForAll, Implies, Not, Or, Real, cmp
+from certiloop.proofs.core import isolated
+from certiloop.proofs.core.solver import check_here, check_valid, max_allocs
+
+pytestmark = pytest.mark.skipif(not isolated.available(), reason="needs the forkserver start method")
+
+xr, yr, xo, yo, da, xr1, yr1, w1, v1, acc, acc2, xr3, yr3 = (
+    Real(n) for n in "xr yr xo yo Da xr1 yr1 w1 v1 acc acc2 xr3 yr3".split())
+
+
+def stalling_claim():
+    circle = cmp("!=", (xr1 + w1 / ((-1) * acc) - xo) ** 2 + (yr1 - v1 / ((-1) * acc) - yo) ** 2,
+                 (v1**2 + w1**2) / acc**2)
+    hypotheses = And(Or(cmp("!=", xr, xo), cmp("!=", yr, yo)), cmp("<", 0, da), cmp("<=", da, 1),
+                     Not(And(cmp("==", xr1, xo), cmp("==", yr1, yo))),
+                     ForAll(acc, Implies(And(cmp("<", 0, acc), cmp("<=", acc, da)), circle)),
+                     cmp("<", 0, acc2), cmp("<=", acc2, da))
+    return Implies(hypotheses, Not(And(cmp("==", xr3, xo), cmp("==", yr3, yo))))
+
+
+def test_a_stall_ends_at_the_allocation_budget_not_at_the_clock():
+    # a wall net far beyond the budget: only the allocation count can have ended the call
+    answer = check_valid(stalling_claim(), 2_000_000, wall_s=600.0)
+    assert answer.status == "unknown"
+    assert "allocation budget spent" in answer.reason
+    assert "wall-clock" not in answer.reason
+
+
+def test_the_allocation_budget_is_deterministic():
+    x, y = Real("x"), Real("y")
+    claim = Implies(ForAll(y, cmp(">=", x * y * y, 0)), cmp(">=", x, 0))
+    runs = [check_valid(claim, 2_000_000) for _ in range(3)]
+    assert {r.status for r in runs} == {"unsat"}
+    assert len({(r.spent, r.allocations) for r in runs}) == 1
+    assert 0 < runs[0].allocations < max_allocs(2_000_000)
+
+
+def test_the_child_answers_as_z3_in_this_process_would():
+    x, y, t = Real("x"), Real("y"), Real("t")
+    claims = [
+        # valid: a square is never negative, for every t
+        Implies(cmp(">", x, 0), ForAll(t, cmp(">=", x * t * t, 0))),
+        # false: x*t*t >= 1 does not hold at t = 0
+        Implies(cmp(">", x, 0), ForAll(t, cmp(">=", x * t * t, 1))),
+        # false, with a witness hypothesis: some y with y*y = x makes x >= 0, and x = 4 > 3
+        Implies(Exists(y, cmp("==", y * y, x)), cmp("<=", x, 3)),
+    ]
+    for claim in claims:
+        here, child = check_here(claim, 2_000_000, 60.0), check_valid(claim, 2_000_000)
+        assert child.status == here.status, claim
+        assert child.allocations > 0  # it did run in a child
+        assert child.model_falsifies == here.model_falsifies
+        if child.status == "sat":  # the model came back as plain values, and it is z3's
+            assert child.model == here.model
+            assert all(isinstance(v, (Fraction, int, bool)) for v in child.model.values())
+    assert [check_valid(c, 2_000_000).status for c in claims] == ["unsat", "sat", "sat"]
+
+
+def test_z3s_exit_message_does_not_reach_the_output(capfd):
+    check_valid(stalling_claim(), 2_000_000)
+    out, _ = capfd.readouterr()
+    assert "allocation" not in out.lower()
+
+
+def test_the_wall_clock_net_kills_a_child_that_does_not_stop():
+    # a budget so large it cannot end the stall (the parameter's 32-bit maximum), and a net of 1 s
+    start = time.perf_counter()
+    answer = isolated.check_in_child(check_here, stalling_claim(), 2_000_000, wall_s=1.0,
+                                     max_allocs=2**32 - 1)
+    assert answer.status == "unknown" and "wall-clock safety net" in answer.reason
+    assert time.perf_counter() - start < 60  # killed, not waited for (z3 alone: minutes)
+
+
+def test_linear_and_quantifier_free_checks_stay_in_this_process():
+    x, t = Real("x"), Real("t")
+    assert check_valid(Implies(cmp(">", x, 0), ForAll(t, cmp(">=", x + t, t))), 10**6).allocations == 0
+    assert check_valid(Implies(cmp(">", x, 0), cmp(">", x * x, 0)), 10**6).allocations == 0
