@@ -87,3 +87,18 @@ def test_linear_and_quantifier_free_checks_stay_in_this_process():
     x, t = Real("x"), Real("t")
     assert check_valid(Implies(cmp(">", x, 0), ForAll(t, cmp(">=", x + t, t))), 10**6).allocations == 0
     assert check_valid(Implies(cmp(">", x, 0), cmp(">", x * x, 0)), 10**6).allocations == 0
+
+
+def _quantified_check_allocations(_):
+    x, y = Real("x"), Real("y")
+    answer = check_valid(Implies(ForAll(y, cmp(">=", x * y * y, 0)), cmp(">=", x, 0)), 2_000_000)
+    return answer.status, answer.allocations
+
+
+def test_a_pool_worker_checks_in_a_child_too():
+    # pool workers are daemonic, and multiprocessing refuses children to those by default
+    import multiprocessing
+
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        status, allocations = pool.map(_quantified_check_allocations, [0])[0]
+    assert status == "unsat" and allocations > 0

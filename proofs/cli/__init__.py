@@ -1,5 +1,5 @@
 """The product surface: the `certiloop` command, model loading, reports and the gate."""
 
-from certiloop.proofs.cli.main import main
+from certiloop.proofs.cli.main import main, run
 
-__all__ = ["main"]
+__all__ = ["main", "run"]

@@ -1,5 +1,3 @@
-import sys
+from certiloop.proofs.cli.main import run
 
-from certiloop.proofs.cli.main import main
-
-sys.exit(main())
+run()

@@ -236,6 +236,18 @@ def _need_cvc5(args: argparse.Namespace) -> None:
             raise BadInput(MISSING) from None
 
 
+def run() -> None:
+    """The `certiloop` command: main(), and after Ctrl-C an exit at once. The reports are
+    written by then, and the interpreter's exit would only wait for the worker pool's thread,
+    sometimes printing "Exception ignored ... Bad file descriptor" after "interrupted"."""
+    code = main()
+    if code == EXIT_INTERRUPTED:
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(code)
+    sys.exit(code)
+
+
 def main(argv: list[str] | None = None) -> int:
     from certiloop.proofs.cli import guards
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import pickle
+from contextlib import contextmanager
 from multiprocessing.connection import Connection
 from typing import Callable
 
@@ -41,8 +42,9 @@ def check_in_child(check: Check, formula: Node, rlimit: int, wall_s: float,
     child = _fork_server().Process(target=_child, args=(sender, check, formula, rlimit, wall_s, max_allocs),
                                    daemon=True)
     try:
-        child.start()
-    except (OSError, ValueError, TypeError, AttributeError, pickle.PicklingError):
+        with _children_allowed():
+            child.start()
+    except (OSError, ValueError, TypeError, AttributeError, AssertionError, pickle.PicklingError):
         # no child (out of processes, or a term that does not pickle): check it here instead
         receiver.close()
         sender.close()
@@ -66,6 +68,31 @@ def check_in_child(check: Check, formula: Node, rlimit: int, wall_s: float,
         return SolverAnswer("unknown", f"allocation budget spent ({max_allocs:,} z3 allocations: z3 "
                             "stalled where its resource count does not reach)", spent=-1)
     return SolverAnswer("unknown", f"z3 ended abnormally (exit code {child.exitcode})", spent=-1)
+
+
+@contextmanager
+def _children_allowed():
+    """multiprocessing refuses children to a daemonic process (a pool's worker), so that none
+    outlives it; this child always is joined, or killed at the net, so it may have one."""
+    config = multiprocessing.current_process()._config
+    daemon = config.pop("daemon", None)
+    try:
+        yield
+    finally:
+        if daemon is not None:
+            config["daemon"] = daemon
+
+
+def _forget_inherited_server() -> None:
+    """A forked process (a pool's worker) inherits its parent's fork server, which it cannot
+    wait for as it is not its child: it starts its own when it needs one."""
+    from multiprocessing import forkserver
+
+    server = forkserver._forkserver
+    server._forkserver_pid = server._forkserver_address = None
+
+
+os.register_at_fork(after_in_child=_forget_inherited_server)
 
 
 def _fork_server():

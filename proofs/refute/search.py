@@ -89,7 +89,9 @@ class Refutation:
                 "check": self.check, "seconds": round(self.seconds, 4)}
 
 
-FAMILY_SHARE = 4  # a small-family attempt: it finds a run cheaply or not at all
+# a small-family attempt finds a run cheaply or not at all: half a run search's budget
+# (sbs.ctrl2_dynamic_join_anywhere's depth-1 run needs about 5M units)
+FAMILY_SHARE = 2
 
 
 def refute(theorem: Theorem, budget: Budget) -> tuple[Refutation | None, str]:
