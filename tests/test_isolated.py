@@ -101,4 +101,37 @@ def test_a_pool_worker_checks_in_a_child_too():
 
     with multiprocessing.get_context("fork").Pool(1) as pool:
         status, allocations = pool.map(_quantified_check_allocations, [0])[0]
-    assert status == "unsat" and allocations > 0
+    # and it counts the same allocations as a check from this process does
+    assert (status, allocations) == _quantified_check_allocations(0)
+    assert allocations > 0
+
+
+SCRIPT = """
+from certiloop.models.lang.terms import ForAll, Implies, Real, cmp
+from certiloop.proofs.core.solver import check_valid
+print("script body runs")
+x, y = Real("x"), Real("y")
+answer = check_valid(Implies(ForAll(y, cmp(">=", x * y * y, 0)), cmp(">=", x, 0)), 2_000_000)
+print(answer.status, answer.allocations)
+"""
+
+
+@pytest.mark.parametrize("how", ["file", "stdin"])
+def test_a_script_without_a_main_guard_runs_once(tmp_path, how):
+    # multiprocessing would re-run the parent's main script inside the child (or fail to
+    # find a script read from stdin); the child must not import it
+    import subprocess
+    import sys
+
+    if how == "file":
+        (tmp_path / "verify.py").write_text(SCRIPT)
+        proc = subprocess.run([sys.executable, "verify.py"], cwd=tmp_path, capture_output=True,
+                              text=True, timeout=120)
+    else:
+        proc = subprocess.run([sys.executable, "-"], input=SCRIPT, cwd=tmp_path, capture_output=True,
+                              text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.split("\n")
+    assert lines.count("script body runs") == 1
+    status, allocations = lines[1].split()
+    assert status == "unsat" and int(allocations) > 0  # it ran in a child

@@ -15,6 +15,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import pickle
+import sys
 from contextlib import contextmanager
 from multiprocessing.connection import Connection
 from typing import Callable
@@ -27,6 +28,7 @@ Check = Callable[[Node, int, float], SolverAnswer]
 MAX_ALLOC_COUNT = 2**32 - 1  # z3's memory_max_alloc_count is an unsigned 32-bit parameter
 ALLOC_EXCEEDED = 113  # z3's exit code when memory_max_alloc_count is passed (ERR_ALLOC_EXCEEDED)
 _context = None
+_warm = False  # this process's fork server has served its throwaway child
 
 
 def available() -> bool:
@@ -38,11 +40,12 @@ def check_in_child(check: Check, formula: Node, rlimit: int, wall_s: float,
     """`check(formula, rlimit, wall_s)` (z3 in the process it runs in) computed in a child with
     an allocation budget as well; `unknown`, saying which, when the child passes that budget
     or the safety net."""
+    _warm_up()
     receiver, sender = _fork_server().Pipe(duplex=False)
     child = _fork_server().Process(target=_child, args=(sender, check, formula, rlimit, wall_s, max_allocs),
                                    daemon=True)
     try:
-        with _children_allowed():
+        with _children_allowed(), _main_module_hidden():
             child.start()
     except (OSError, ValueError, TypeError, AttributeError, AssertionError, pickle.PicklingError):
         # no child (out of processes, or a term that does not pickle): check it here instead
@@ -83,13 +86,49 @@ def _children_allowed():
             config["daemon"] = daemon
 
 
+@contextmanager
+def _main_module_hidden():
+    """multiprocessing would have the child import the parent's main script first (as
+    `__mp_main__`): a user's script without an `if __name__ == "__main__"` guard would run
+    again inside it, and a script from stdin cannot be found. The child needs nothing from
+    it, so the main module shows neither its file nor its spec while the child starts."""
+    main = sys.modules.get("__main__")
+    if main is None:
+        yield
+        return
+    saved = {key: main.__dict__[key] for key in ("__file__", "__spec__") if key in main.__dict__}
+    main.__dict__.pop("__file__", None)
+    main.__spec__ = None
+    try:
+        yield
+    finally:
+        main.__dict__.pop("__spec__", None)
+        main.__dict__.update(saved)
+
+
+def _warm_up() -> None:
+    """One throwaway child first: the fork server's first child allocates about 50 times
+    fewer in z3 than every later one (the server changes once it has served), and the
+    budget must not depend on which check comes first."""
+    global _warm
+    if _warm:
+        return
+    child = _fork_server().Process(target=_allocations_so_far, daemon=True)
+    with _children_allowed(), _main_module_hidden():
+        child.start()
+    child.join()
+    _warm = True
+
+
 def _forget_inherited_server() -> None:
     """A forked process (a pool's worker) inherits its parent's fork server, which it cannot
     wait for as it is not its child: it starts its own when it needs one."""
     from multiprocessing import forkserver
 
+    global _warm
     server = forkserver._forkserver
     server._forkserver_pid = server._forkserver_address = None
+    _warm = False
 
 
 os.register_at_fork(after_in_child=_forget_inherited_server)
