@@ -12,16 +12,17 @@ bound is a deterministic budget like the units, and the parent reads the child's
 
 from __future__ import annotations
 
-import multiprocessing
 import os
 import pickle
 import sys
 from contextlib import contextmanager
-from multiprocessing.connection import Connection
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from certiloop.models.lang.terms import Node
 from certiloop.proofs.core.answers import SolverAnswer
+
+if TYPE_CHECKING:
+    from multiprocessing.connection import Connection
 
 Check = Callable[[Node, int, float], SolverAnswer]
 
@@ -32,6 +33,8 @@ _warm = False  # this process's fork server has served its throwaway child
 
 
 def available() -> bool:
+    import multiprocessing  # here, not at import: most runs never need it
+
     return "forkserver" in multiprocessing.get_all_start_methods()
 
 
@@ -77,6 +80,8 @@ def check_in_child(check: Check, formula: Node, rlimit: int, wall_s: float,
 def _children_allowed():
     """multiprocessing refuses children to a daemonic process (a pool's worker), so that none
     outlives it; this child always is joined, or killed at the net, so it may have one."""
+    import multiprocessing
+
     config = multiprocessing.current_process()._config
     daemon = config.pop("daemon", None)
     try:
@@ -123,9 +128,11 @@ def _warm_up() -> None:
 def _forget_inherited_server() -> None:
     """A forked process (a pool's worker) inherits its parent's fork server, which it cannot
     wait for as it is not its child: it starts its own when it needs one."""
-    from multiprocessing import forkserver
-
     global _warm
+    if _context is None:  # this process never started one
+        return
+    from multiprocessing import forkserver  # imported already, with _context
+
     server = forkserver._forkserver
     server._forkserver_pid = server._forkserver_address = None
     _warm = False
@@ -137,6 +144,8 @@ os.register_at_fork(after_in_child=_forget_inherited_server)
 def _fork_server():
     global _context
     if _context is None:
+        import multiprocessing
+
         _context = multiprocessing.get_context("forkserver")
         _context.set_forkserver_preload(["certiloop.proofs.core.solver"])  # z3 imported once, unused
     return _context
