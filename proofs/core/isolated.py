@@ -8,6 +8,10 @@ exiting the whole process. So such a check runs in a child forked from a fork se
 holds no z3 state: the child's count starts at the same value every time, the allocation
 bound is a deterministic budget like the units, and the parent reads the child's exit as
 `unknown`. The child can also be killed, so the wall-clock safety net really ends the call.
+(The count is the same for every check from one process; from another process, with other
+environment variables or paths, it can differ by a few dozen allocations in 300,000, where a
+budget is at least 10,000,000, so only a check ending that close to its budget could end
+differently.)
 """
 
 from __future__ import annotations
@@ -24,7 +28,7 @@ from certiloop.proofs.core.answers import SolverAnswer
 if TYPE_CHECKING:
     from multiprocessing.connection import Connection
 
-Check = Callable[[Node, int, float], SolverAnswer]
+Check = Callable[[Node, int, "float | None"], SolverAnswer]
 
 MAX_ALLOC_COUNT = 2**32 - 1  # z3's memory_max_alloc_count is an unsigned 32-bit parameter
 ALLOC_EXCEEDED = 113  # z3's exit code when memory_max_alloc_count is passed (ERR_ALLOC_EXCEEDED)
@@ -159,7 +163,9 @@ def _child(sender: Connection, check: Check, formula: Node, rlimit: int, wall_s:
     os.dup2(devnull, 1)  # z3 announces the exceeded count on stdout: keep the parent's output clean
     base = _allocations_so_far()
     z3.set_param("memory_max_alloc_count", min(base + max_allocs, MAX_ALLOC_COUNT))
-    answer = check(formula, rlimit, wall_s)
+    # no z3 timeout here: the parent kills the child at the net, and z3's timer thread would
+    # make the allocation count vary with the machine's load (by a few hundred)
+    answer = check(formula, rlimit, None)
     answer.allocations = _allocations_so_far() - base
     sender.send(answer)
     sender.close()

@@ -98,7 +98,7 @@ def max_allocs(rlimit: int) -> int:
     return ALLOC_BASE + ALLOCS_PER_UNIT * min(rlimit, UNIT_CAP)
 
 
-def check_here(formula: Node, rlimit: int, wall_s: float) -> SolverAnswer:
+def check_here(formula: Node, rlimit: int, wall_s: float | None) -> SolverAnswer:
     """check_valid's answer, from z3 in this process."""
     tr = Z3Translator()
     try:
@@ -107,14 +107,15 @@ def check_here(formula: Node, rlimit: int, wall_s: float) -> SolverAnswer:
         tr.release()
 
 
-def _check(formula: Node, tr: Z3Translator, rlimit: int, wall_s: float) -> SolverAnswer:
+def _check(formula: Node, tr: Z3Translator, rlimit: int, wall_s: float | None) -> SolverAnswer:
     goal = z3.Not(tr(formula))
     if _quantifier_free(formula) and _pure_real(tr, formula):
         solver = z3.SolverFor("QF_NRA", ctx=tr.ctx)
     else:
         solver = z3.Solver(ctx=tr.ctx)
     solver.set("rlimit", max(1, int(rlimit)))
-    solver.set("timeout", max(1, int(wall_s * 1000)))
+    if wall_s is not None:  # a child (isolated.py) has its net in the parent, and no z3 timer
+        solver.set("timeout", max(1, int(wall_s * 1000)))
     solver.add(goal)
     try:
         result = solver.check()
