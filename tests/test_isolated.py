@@ -101,12 +101,13 @@ def test_a_pool_worker_checks_in_a_child_too():
 
     with multiprocessing.get_context("fork").Pool(1) as pool:
         status, allocations = pool.map(_quantified_check_allocations, [0])[0]
-    # about the allocations a check from this process counts: z3's count in a child varies by
-    # a few dozen in 300,000 with the process it starts from (its environment, paths), where a
-    # budget is at least 10,000,000
+    # about the allocations a check from this process counts (a check in this process counts
+    # none): z3's count in a child varies with the memory layout of the process that started
+    # its fork server (its arguments, paths), CI saw 1,029 in 293,000, where a budget is at
+    # least 10,000,000
     here = _quantified_check_allocations(0)
     assert status == here[0] == "unsat"
-    assert abs(allocations - here[1]) < 1000 and allocations > 0
+    assert allocations > 0 and abs(allocations - here[1]) <= here[1] // 100
 
 
 SCRIPT = """
