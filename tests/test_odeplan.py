@@ -1,0 +1,62 @@
+"""The ODE planner's candidate atoms (proofs/engine/odeplan.py): a guarantee written as the
+unsafe set it excludes, `!(x <= -1 | y <= -1)` (KeYmaera X's archives write most of theirs so),
+gives the links `x > -1` and `y > -1`, after the author's invariants and without any.
+
+The planner is search: the core checks every link, so a wrong atom can only fail to prove.
+Each proof here is witnessed by scipy integrating the flow; each false twin must not prove and
+is shown false by integration."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from certiloop.models import And, Not, Or, Reals, Theorem, ode
+from certiloop.proofs.engine import Prover
+from certiloop.proofs.engine.odeplan import _atoms
+
+x, y = Reals("x y")
+
+
+def verdict(pre, program, post) -> str:
+    with Prover(jobs=1) as p:
+        return p.prove(Theorem("t", pre, program, post), search=False).verdict
+
+
+def along(rhs, start, T=3.0):
+    sol = solve_ivp(lambda _t, s: rhs(*s), (0.0, T), np.asarray(start, float), method="DOP853",
+                    rtol=1e-10, atol=1e-12, dense_output=True)
+    assert sol.success
+    return sol.sol(np.linspace(0.0, T, 601))
+
+
+def test_negations_are_pushed_into_comparisons():
+    got = _atoms(And(Not(Or(x <= -1, Not(y < 2), Or(x > 3, y >= x))), x * y >= 0))
+    assert [a.key for a in got] == [a.key for a in (x > -1, y < 2, x <= 3, y < x, x * y >= 0)]
+    # a negated conjunction is a disjunction: no atom of it holds alone
+    assert [a.key for a in _atoms(Not(And(x > 0, y > 0)))] == [Not(And(x > 0, y > 0)).key]
+
+
+# x' = 1 + y^2 only grows x; y' = -y keeps y's sign (a Darboux identity)
+GROWS = {x: 1 + y**2, y: -y}
+SHRINKS = {x: -1 - y**2, y: -y}  # x falls below -1 before t = 1
+EXCLUDED = Not(Or(x <= -1, y <= -1))
+
+
+def test_the_excluded_set_after_an_annotation_is_proved_and_witnessed():
+    # y > 0 alone does not give x > -1: the guarantee's own atom must join the chain
+    assert verdict(And(x == 0, y == 1), ode(GROWS, invariants=[y > 0]), EXCLUDED) == "proved"
+    path = along(lambda x, y: [1 + y**2, -y], [0.0, 1.0])
+    assert path[0].min() > -1 and path[1].min() > -1
+
+
+def test_the_excluded_set_without_an_annotation_is_proved_and_witnessed():
+    assert verdict(And(x == 0, y == 1), ode(GROWS), Not(Or(x <= -1, y <= 0))) == "proved"
+    path = along(lambda x, y: [1 + y**2, -y], [0.0, 1.0])
+    assert path[0].min() > -1 and path[1].min() > 0
+
+
+def test_an_excluded_set_the_flow_reaches_is_not_proved():
+    for program in (ode(SHRINKS, invariants=[y > 0]), ode(SHRINKS)):
+        assert verdict(And(x == 0, y == 1), program, EXCLUDED) != "proved"
+    assert along(lambda x, y: [-1 - y**2, -y], [0.0, 1.0])[0].min() < -1
