@@ -9,9 +9,13 @@ is shown false by integration."""
 from __future__ import annotations
 
 import numpy as np
+from hypothesis import given
+from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from certiloop.models import And, Not, Or, Reals, Theorem, ode
+from certiloop.models import And, Iff, Not, Or, Reals, Theorem, ode
+from certiloop.models.lang.terms import cmp
+from certiloop.proofs.core.solver import check_here
 from certiloop.proofs.engine import Prover
 from certiloop.proofs.engine.odeplan import _atoms
 
@@ -35,6 +39,22 @@ def test_negations_are_pushed_into_comparisons():
     assert [a.key for a in got] == [a.key for a in (x > -1, y < 2, x <= 3, y < x, x * y >= 0)]
     # a negated conjunction is a disjunction: no atom of it holds alone
     assert [a.key for a in _atoms(Not(And(x > 0, y > 0)))] == [Not(And(x > 0, y > 0)).key]
+
+
+def _formulas():
+    comparisons = st.builds(lambda op, a, b, c: cmp(op, a * x + b * y, c),
+                            st.sampled_from(["<", "<=", ">", ">=", "==", "!="]),
+                            st.integers(-2, 2), st.integers(-2, 2), st.integers(-2, 2))
+    return st.recursive(comparisons, lambda inner: st.one_of(
+        st.builds(Not, inner), st.lists(inner, min_size=2, max_size=3).map(lambda fs: And(*fs)),
+        st.lists(inner, min_size=2, max_size=3).map(lambda fs: Or(*fs))), max_leaves=6)
+
+
+@given(_formulas())
+def test_the_atoms_together_mean_the_formula(f):
+    # z3 decides it: a wrong negated operator or a disjunct taken as a conjunct fails here
+    atoms = _atoms(f)
+    assert check_here(Iff(And(*atoms), f), 1_000_000, 60.0).status == "unsat", (f, atoms)
 
 
 # x' = 1 + y^2 only grows x; y' = -y keeps y's sign (a Darboux identity)
