@@ -21,6 +21,7 @@ from certiloop.models.kyx.writer import KYX_IDENT
 from certiloop.models.lang.programs import ODE, Assign, Choice, Loop, Seq, assign, loop, seq, test
 from certiloop.models.lang.terms import And, Box, ForAll, Iff, Implies, Not, Or, Real, cmp, const, free_vars
 from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.engine import Prover
 
 FIXTURES = Path(__file__).parent / "fixtures"
 VALID, INVALID = FIXTURES / "kyx_valid.kyx", FIXTURES / "kyx_invalid.kyx"
@@ -124,12 +125,34 @@ def test_a_disjunction_beside_a_box_becomes_an_assumption():
     assert str(t.guarantee) == "x <= 1"
 
 
+def test_a_negative_exponent_is_a_division_checked_like_any_other():
+    (e,) = read_entries('ArchiveEntry "a" Definitions Real tau = 10^-10; End. ProgramVariables Real x; '
+                        'End. Problem x > 0 -> x^-1 > 0 & x^(-2) >= tau*0 & 2^-3 = 1/8 End. End.', "f.kyx")
+    assert e.theorem.assumptions.key == (Real("x") > 0).key
+    # tau is the number 10^-10; x^-n is the division 1/x^n
+    assert str(e.theorem.guarantee) == "1/x > 0 & 1/x^2 >= 1/10000000000*0 & 1/8 = 1/8"
+    with Prover(jobs=1) as p:
+        assert p.prove(e.theorem, search=False).verdict == "proved"
+        # x^-1 where x may be 0: refused as ill-defined, never proved
+        (bad,) = read_entries('ArchiveEntry "b" ProgramVariables Real x; End. '
+                              'Problem x^(-1) >= 0 -> x > 0 End. End.', "f.kyx")
+        result = p.prove(bad.theorem)
+        assert result.verdict == "unknown" and result.ill_defined and "ill-defined" in result.reason
+        # a false one is refuted: x = 1/2 gives x^-2 = 4
+        (false,) = read_entries('ArchiveEntry "c" ProgramVariables Real x; End. '
+                                'Problem x > 0 -> x^-2 < 1 End. End.', "f.kyx")
+        assert p.prove(false.theorem).verdict == "refuted"
+    (zero,) = read_entries('ArchiveEntry "d" Problem 0^-1 > 0 End. End.', "f.kyx")
+    assert zero.theorem is None and re.match(r"f\.kyx:1:\d+: division by the constant 0", zero.error)
+
+
 def test_unsupported_constructs_are_refused_with_line_and_column():
     bad = entries(FIXTURES / "kyx_unsupported.kyx")["real exponent"]
     assert bad.theorem is None and re.search(r"kyx_unsupported\.kyx:3:\d+: exponent `x`", bad.error)
     for text, what in [
         ('ArchiveEntry "a" Definitions Real f(Real x); End. Problem f(1) > 0 End. End.', "uninterpreted"),
         ('ArchiveEntry "a" Problem sqrt(2) > 0 End. End.', "`sqrt` is not supported"),
+        ('ArchiveEntry "a" Problem 2^(1/2) > 1 End. End.', "exponent `1/2` is not supported"),
         ('ArchiveEntry "a" Problem [{x:=x+1;}*]x>0 <-> x=1 End. End.', "loop inside"),
         ('ArchiveEntry "a" Definitions Real c; End. Problem [c := 1;]c > 0 End. End.', "constant `c`"),
         ('ArchiveEntry "a" Definitions Real c = 2; End. Problem \\forall c c>0 End. End.', "quantify over"),

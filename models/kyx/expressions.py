@@ -240,10 +240,19 @@ class Builder:
         exponent = self._num(t.children[1], env)
         if exponent.op == "^" and exponent.args[0].op == "const":  # 2^3 in x^2^3: a number
             exponent = const(exponent.args[0].payload ** exponent.payload)
-        if exponent.op != "const" or exponent.payload.denominator != 1 or exponent.payload < 0:
-            raise self.fail(t.children[1], f"exponent `{exponent}` is not supported: only natural "
-                            "number literals")
-        return base ** int(exponent.payload)
+        if exponent.op != "const" or exponent.payload.denominator != 1:
+            raise self.fail(t.children[1], f"exponent `{exponent}` is not supported: only integer "
+                            "literals")
+        if exponent.payload >= 0:
+            return base ** int(exponent.payload)
+        # x^-n is 1/x^n, a division: defined only where x != 0, which the claim's
+        # well-definedness obligations check like any other division (10^-10 is a number)
+        if base.op == "const" and base.payload == 0:
+            raise self.fail(t, "division by the constant 0 (a negative power of 0)")
+        if base.op == "const":
+            return const(1 / base.payload ** int(-exponent.payload))
+        power = -int(exponent.payload)
+        return div(const(1), base if power == 1 else base ** power)
 
     def e_comparison(self, t, env):
         a, op, b = t.children
