@@ -20,6 +20,7 @@ from certiloop.models.lang.terms import (
     ModelError,
     Node,
     Not,
+    Or,
     Real,
     cmp,
     const,
@@ -195,6 +196,14 @@ def solvable(ode: ODE) -> bool:
 #   barrier  p = 0 -> p' > 0, for > and >= (p > 0 until a first zero, where p' <= 0; p >= 0
 #            until a last time p = 0 before p < 0, where again p' <= 0. The weak premise
 #            p = 0 -> p' >= 0 would be unsound for >=: -x^2 >= 0 under x' = 1)
+#   progress p = 0 -> (f = 0 | p' > 0 | p' = 0 & p'' > 0), for >=, with p and the field f
+#            polynomials (KeYmaera X's ODEinv reaches the same by higher Lie derivatives). A
+#            flow leaving p >= 0 has a last time t* with p = 0, p < 0 just after. If f = 0
+#            there, the state is an equilibrium and, f being polynomial (locally Lipschitz),
+#            the flow stays at it (p = 0 after t*). Else p∘x is C^2 at t*, and p' > 0, or
+#            p' = 0 with p'' > 0, makes p > 0 just after t*. Each contradicts leaving. The
+#            weak p'' >= 0 would be unsound (-x^3 >= 0 under x' = 1 from 0), and so would any
+#            component of f = 0 for the whole (-x^2 >= 0 under x' = 1, y' = 0)
 #   nonzero  p != 0, p a polynomial                                  inside the domain
 #            (p is continuous along a flow that never leaves the region where p != 0, so by
 #            the intermediate value theorem p keeps the sign it starts with; for = and !=
@@ -204,7 +213,7 @@ def solvable(ode: ODE) -> bool:
 # (premise `C -> premise`; where C is false the atom holds throughout). KeYmaera X's
 # `v'=0 -> v=old(v)` annotations are of this kind once v' is read as its right-hand side.
 
-METHODS = ("dI", "dbx", "barrier", "nonzero")
+METHODS = ("dI", "dbx", "barrier", "progress", "nonzero")
 
 
 @dataclass(frozen=True)
@@ -327,6 +336,14 @@ def atom_premise(atom: Node, ode: ODE, method: str, cofactor: Node | None = None
         if op not in (">", ">="):
             raise ValueError(f"the barrier rule proves inequalities only, not `{atom}`")
         return Implies(cmp("==", p, 0), cmp(">", dp, 0))
+    if method == "progress":
+        if op != ">=":
+            raise ValueError(f"the progress rule proves closed inequalities only, not `{atom}`")
+        if has_division(p) or any(has_division(rhs) for _, rhs in ode.eqs):
+            raise ValueError(f"the progress rule needs a polynomial and a polynomial field, not `{atom}`")
+        ddp = lie_derivative(dp, ode)
+        at_rest = And(*(cmp("==", rhs, 0) for _, rhs in ode.eqs))
+        return Implies(cmp("==", p, 0), Or(at_rest, cmp(">", dp, 0), And(cmp("==", dp, 0), cmp(">", ddp, 0))))
     if method == "nonzero":
         if has_division(p):  # a quotient need not be continuous: its denominator may vanish
             raise ValueError(f"the nonzero rule needs a polynomial, not `{atom}`")

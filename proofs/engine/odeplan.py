@@ -15,7 +15,7 @@ obligations with the current chains and discharges the links' own obligations; t
 chain, the links that do not hold initially are all dropped (whether a link holds at the
 start does not depend on the other links of its chain), or else the first link whose premise
 fails tries its next rule (dI, dbx with the quotient of p' by p as cofactor, the strict
-barrier), then once the end of the chain (where more atoms are known), then is dropped. The
+barrier, progress), then once the end of the chain (where more atoms are known), then is dropped. The
 round count is bounded, so the plan is deterministic.
 """
 
@@ -43,6 +43,9 @@ from certiloop.proofs.engine.darboux import darboux_atoms
 from certiloop.proofs.engine.darboux_search import search_atoms
 
 MAX_ROUNDS = 40
+# progress asks for p'', which for a cubic field in six variables takes sympy seconds to build
+# (Yang Wu Lin C7: 4.5 s) and z3 longer to check; its cases so far are planar
+MAX_PROGRESS_VARS = 3
 Plan = dict[tuple, tuple[OdeStep, ...]]
 
 
@@ -143,6 +146,9 @@ def rule_options(atom: Node, ode: ODE) -> list[OdeStep]:
         options.append(OdeStep(atom, "dbx", rational))
     if atom_polynomial(atom)[1] in (">", ">="):
         options.append(OdeStep(atom, "barrier"))
+    polynomial = not has_division(atom) and not any(has_division(rhs) for _, rhs in ode.eqs)
+    if atom_polynomial(atom)[1] == ">=" and polynomial and len(ode.variables) <= MAX_PROGRESS_VARS:
+        options.append(OdeStep(atom, "progress"))
     if not has_division(atom):
         options.append(OdeStep(atom, "nonzero"))
     return options
