@@ -16,7 +16,8 @@ chain, the links that do not hold initially are all dropped (whether a link hold
 start does not depend on the other links of its chain), or else the first link whose premise
 fails tries its next rule (dI, dbx with the quotient of p' by p as cofactor, the strict
 barrier, progress), then once the end of the chain (where more atoms are known), then is dropped. The
-round count is bounded, so the plan is deterministic.
+round count is bounded, so the plan is deterministic; when it runs out, each chain is cut
+before its first failing link.
 """
 
 from __future__ import annotations
@@ -212,7 +213,9 @@ def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResu
                 _drop(chains[key], starts)
             else:
                 _revise(chains[key], min(bad))
-    return plan
+    # the rounds ran out: each chain up to its first failing link, whose links all hold (a
+    # link's premise assumes only the links before it), rather than a chain that fails
+    return {key: steps[: min(failed[key]) - 1] if key in failed else steps for key, steps in plan.items()}
 
 
 def _drop(links: list[_Link], numbers: list[int]) -> None:
