@@ -13,11 +13,14 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from certiloop.models import And, Iff, Not, Or, Reals, Theorem, ode
+from certiloop.models import And, ForAll, Iff, Implies, Not, Or, Reals, Theorem, ode, seq, test
 from certiloop.models.lang.terms import cmp
+from certiloop.proofs.core.instantiate import has_quantifier
 from certiloop.proofs.core.solver import check_here
+from certiloop.proofs.core.vcgen import Obligation, generate
 from certiloop.proofs.engine import Prover
-from certiloop.proofs.engine.odeplan import _atoms
+from certiloop.proofs.engine.discharge import discharge_one
+from certiloop.proofs.engine.odeplan import _atoms, _for_search, plan_odes
 
 x, y = Reals("x y")
 
@@ -80,3 +83,38 @@ def test_an_excluded_set_the_flow_reaches_is_not_proved():
     for program in (ode(SHRINKS, invariants=[y > 0]), ode(SHRINKS)):
         assert verdict(And(x == 0, y == 1), program, EXCLUDED) != "proved"
     assert along(lambda x, y: [-1 - y**2, -y], [0.0, 1.0])[0].min() < -1
+
+
+# ---- a link's trial leaves out quantified hypotheses (z3's qsat can stall on them, 53 s on
+# ModelPlex's Planar Flight Motion Safety with Intruder Velocity Uncertainty); only a weaker
+# claim is tried, so a link it proves holds, and the planned proof keeps every hypothesis
+c, z = Reals("c z")
+QUANTIFIED_FACT = ForAll([z], Implies(z >= c, z * z * x >= 0))  # says nothing about the flow
+
+
+def test_a_links_trial_has_no_quantified_hypothesis():
+    ob = Obligation("o1", "p", Implies(And(x > 0, QUANTIFIED_FACT, y > 1), x * y > 0))
+    weaker = _for_search(ob).formula
+    assert weaker.key == Implies(And(x > 0, y > 1), x * y > 0).key
+    assert check_here(Implies(weaker, ob.formula), 1_000_000, 60.0).status == "unsat"
+    assert _for_search(Obligation("o2", "p", x > 0)).formula.key == (x > 0).key
+
+
+def test_the_planner_tries_no_quantified_formula_and_the_proof_keeps_its_facts():
+    # y' = -x*y keeps y's sign (Darboux); the test's quantified fact only rides along
+    theorem = Theorem("t", And(x == 1, y == 1, c >= 0), seq(test(QUANTIFIED_FACT), ode({x: y, y: -x * y})),
+                      y > 0)
+    tried = []
+
+    def spy(ob):
+        tried.append(ob.formula)
+        return discharge_one(ob)
+
+    plan = plan_odes(theorem, spy)
+    assert plan and tried and not any(has_quantifier(f) for f in tried)
+    obligations = generate(theorem, plan)
+    assert any(has_quantifier(ob.formula) for ob in obligations)  # the proof itself keeps the fact
+    with Prover(jobs=1) as p:
+        assert p.prove(theorem, search=False).verdict == "proved"
+    path = along(lambda x, y: [y, -x * y], [1.0, 1.0])
+    assert path[1].min() > 0
