@@ -1,5 +1,6 @@
 """Build certiloop terms, formulas and programs from one entry's parse trees (definitions
-expanded, abs/min/max split into cases, differential symbols and old(x) translated)."""
+expanded, abs/min/max split into cases, square roots eliminated or named, differential
+symbols and old(x) translated)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from typing import Any
 
 from lark import Token, Tree
 
+from certiloop.models.kyx.roots import NotPolynomialInRoot, exact_root, never_negative, without_root
 from certiloop.models.kyx.syntax import BUILTINS, KyxError, Scope, _where
 from certiloop.models.lang.programs import (
     Choice,
@@ -55,7 +57,11 @@ class Builder:
         self.taken = set(taken)  # every name the entry spells: made-up names must differ
         self.source = scope.source
         self.primes = prime_names  # x -> the variable standing for x'
-        self.cases: dict[str, tuple[str, tuple[Node, ...]]] = {}  # marker -> (abs|min|max, args)
+        self.cases: dict[str, tuple[str, tuple[Node, ...]]] = {}  # marker -> (abs|min|max|sqrt, args)
+        # symbol -> (e, where): a root of a term that may be negative, named for the reader
+        # to pin down (s >= 0 & s^2 = e) where the claim shows e >= 0 (reader.py)
+        self.named_roots: dict[str, tuple[Node, Any]] = {}
+        self.made: set[str] = set()  # names made up here (fresh_variable)
         self.expanding: list[str] = []
         self.olds: dict[str, Node] | None = None  # in ODE annotations: old(e) -> its variable
 
@@ -75,7 +81,8 @@ class Builder:
         return Real(candidate)
 
     def _used(self) -> set[str]:
-        return self.taken | set(self.primes.values()) | set(self.scope.variables) | set(self.scope.defs)
+        return (self.taken | set(self.primes.values()) | set(self.scope.variables) | set(self.scope.defs)
+                | self.made | set(self.named_roots))
 
     def fail(self, where: Any, message: str) -> KyxError:
         return KyxError(f"{_where(self.source, where)}: {message}")
@@ -101,6 +108,8 @@ class Builder:
                 return const(0)
             if e.payload in self.primes.values():
                 raise self.fail(where, f"the differential of the differential symbol `{e.payload}`")
+            if e.payload in self.cases or e.payload in self.named_roots:
+                raise self.fail(where, "the differential of abs/min/max or a square root is not supported")
             return self.prime(e.payload)
         if op == "+":
             return _sum(self.differential(a, where) for a in e.args)
@@ -175,8 +184,12 @@ class Builder:
             self.cases[marker] = (name, tuple(args))
             return Real(marker)
         d = self.scope.defs.get(name)
+        if d is None and name == "sqrt":
+            if len(args) != 1:
+                raise self.fail(t, f"sqrt takes 1 argument, got {len(args)}")
+            return self.root(args[0], t)
         if d is None:
-            if name == "sqrt" or name in ("exp", "sin", "cos", "ln"):
+            if name in ("exp", "sin", "cos", "ln"):
                 raise self.fail(t, f"`{name}` is not supported (no real-closed-field encoding)")
             if args:
                 raise self.fail(t, f"undeclared function `{name}` with arguments is not supported")
@@ -240,9 +253,15 @@ class Builder:
         exponent = self._num(t.children[1], env)
         if exponent.op == "^" and exponent.args[0].op == "const":  # 2^3 in x^2^3: a number
             exponent = const(exponent.args[0].payload ** exponent.payload)
+        if exponent.op == "const" and exponent.payload.denominator == 2:  # x^(k/2) = x^((k-1)/2)*sqrt(x)
+            k = exponent.payload.numerator
+            whole = self.root(base, t)
+            if abs(k) > 1:
+                whole = whole * base ** ((abs(k) - 1) // 2)
+            return whole if k > 0 else div(const(1), whole)
         if exponent.op != "const" or exponent.payload.denominator != 1:
             raise self.fail(t.children[1], f"exponent `{exponent}` is not supported: only integer "
-                            "literals")
+                            "literals and halves (square roots)")
         if exponent.payload >= 0:
             return base ** int(exponent.payload)
         # x^-n is 1/x^n, a division: defined only where x != 0, which the claim's
@@ -260,17 +279,56 @@ class Builder:
         if left.sort == BOOL or right.sort == BOOL:
             raise self.fail(op, "comparison of formulas is not supported")
         node = cmp({"=": "==", "!=": "!="}.get(str(op), str(op)), left, right)
-        return self.split_cases(node)
+        return self.split_cases(node, op)
 
-    def split_cases(self, f: Node) -> Node:
-        """Replace abs/min/max markers in a first-order formula by a case split."""
+    def root(self, e: Node, where) -> Node:
+        """sqrt(e): a number; a marker eliminated at its comparison when e is never negative by
+        its shape; otherwise a symbol the reader pins down where the claim shows e >= 0."""
+        if any(m in self.cases or m in self.named_roots for m in free_vars(e)):
+            raise self.fail(where, f"the square root of `{e}`, which holds abs/min/max or another root, "
+                            "is not supported")
+        if e.op == "const":
+            if e.payload < 0:
+                raise self.fail(where, f"the square root of the negative number {e.payload}")
+            exact = exact_root(e.payload)
+            if exact is not None:
+                return const(exact)
+        if never_negative(e):
+            marker = f"sqrt@{len(self.cases) + 1}"
+            self.cases[marker] = ("sqrt", (e,))
+            return Real(marker)
+        for name, (known, _) in self.named_roots.items():
+            if known.same(e):
+                return Real(name)
+        named = self.fresh_variable("sqrt")
+        self.named_roots[named.payload] = (e, where)
+        return named
+
+    def fresh_variable(self, base: str) -> Node:
+        """A real symbol named after `base` that the entry does not use."""
+        used = self._used() | set(self.olds or {})
+        candidate, k = base, 1
+        while candidate in used:
+            k += 1
+            candidate = f"{base}{k}"
+        self.made.add(candidate)
+        return Real(candidate)
+
+    def split_cases(self, f: Node, where=None) -> Node:
+        """Replace abs/min/max markers in a first-order formula by a case split, and square
+        roots of never-negative terms by their sign conditions (roots.py)."""
         markers = [m for m in free_vars(f) if m in self.cases]
         if not markers:
             return f
         m = markers[0]
         kind, args = self.cases[m]
+        if kind == "sqrt":
+            try:
+                return self.split_cases(without_root(f, m, args[0]), where)
+            except NotPolynomialInRoot as exc:
+                raise self.fail(where, f"a square root inside {exc} is not supported") from None
         out = Or(*(And(guard, substitute(f, {m: value})) for guard, value in _cases(kind, args)))
-        return self.split_cases(out)
+        return self.split_cases(out, where)
 
     def e_not_(self, t, env):
         return Not(self._bool(t.children[0], env))
@@ -359,7 +417,11 @@ class Builder:
         if not markers:
             return assign(target, value)
         kind, args = self.cases[markers[0]]
-        return choice(*(seq(test(self.split_cases(guard)),
+        if kind == "sqrt":  # the root's one value (its argument is never negative), then the rest
+            r = self.fresh_variable("root")
+            return seq(havoc(r), test(And(r >= 0, cmp("==", r * r, args[0]))),
+                       self._assign(target, substitute(value, {markers[0]: r}), where))
+        return choice(*(seq(test(self.split_cases(guard, where)),
                             self._assign(target, substitute(value, {markers[0]: v}), where))
                         for guard, v in _cases(kind, args)))
 
@@ -397,8 +459,8 @@ class Builder:
             value = self._num(rhs, env)
             bad = [m for m in free_vars(value) if m in self.cases or m in self.primes.values()]
             if bad:
-                raise self.fail(rhs, "abs/min/max or a differential symbol in an ODE right-hand side "
-                                "is not supported")
+                raise self.fail(rhs, "abs/min/max, the square root of a state variable or a differential "
+                                "symbol in an ODE right-hand side is not supported")
             eqs.append((Real(str(lhs)[:-1]), value))
         domain = TRUE if domain_tree is None else self._bool(domain_tree, env)
         outer, self.olds = self.olds, {}

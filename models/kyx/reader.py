@@ -12,7 +12,11 @@ Language the engine does not have is translated exactly or refused with line and
     side at the end of the flow (dL's semantics); inside the ODE's own domain and
     annotations it is replaced by that right-hand side, which it equals along the flow;
   * `(e)'` is the total differential of e (sum of ∂e/∂x · x'; constants have none);
-  * `old(e)` in an ODE's annotation is a fresh variable assigned e just before the ODE.
+  * `old(e)` in an ODE's annotation is a fresh variable assigned e just before the ODE;
+  * a square root `e^(1/2)` (or `sqrt(e)`, `e^(k/2)`) of a sum of squares is eliminated at
+    each comparison (roots.py); of any other term that no program writes, it is a symbol s
+    pinned by `s >= 0 & s^2 = e` in the assumptions, and the claim is well-defined only if
+    its first assumptions give e >= 0 (a `defined` obligation, like a division's).
 """
 
 from __future__ import annotations
@@ -52,6 +56,7 @@ from certiloop.models.lang.terms import (
     MODALITIES,
     TRUE,
     And,
+    Implies,
     ModelError,
     Node,
     Not,
@@ -215,6 +220,7 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
     if meta.get("names"):
         f = _rename(f, meta["names"])
     assumptions, program, guarantee = split_problem(f, exact=meta.get("shape") == "A->[a]P")
+    assumptions, root_conditions = _pin_roots(builder.named_roots, assumptions, program, guarantee, source)
     for part, what in ((assumptions, "an assumption"), (guarantee, "the guarantee")):
         if _nested_loop(part):
             raise KyxError(f"{_where(source, problem)}: a loop inside {what}'s modality is not "
@@ -240,8 +246,66 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
         abbreviations={k: _rename(_meta_term(v, scope, source), names)
                        for k, v in meta.get("abbreviations", {}).items()},
         scenarios=tuple(_rename(_meta_formula(s, scope, source), names) for s in meta.get("scenarios", [])),
+        well_defined=root_conditions,
     )
     return theorem
+
+
+def _pin_roots(roots: dict[str, tuple[Node, object]], assumptions: Node, program: Program,
+               guarantee: Node, source: str) -> tuple[Node, tuple[tuple[str, Node], ...]]:
+    """The assumptions with each named square root s of e pinned, `s >= 0 & s^2 = e`, and
+    the side conditions that make this exact. No program writes e's symbols and no
+    quantifier binds them, so e keeps its initial value in every run. The pins go right
+    after the first assumptions that use no root: read left to right, those are evaluated
+    first, and the claim is well-defined only where they give e >= 0 (`those -> e >= 0`
+    valid). Then in every state they allow, s is sqrt(e), and where they fail, both claims
+    hold for want of an assumption."""
+    if not roots:
+        return assumptions, ()
+    changing = _changing(assumptions) | _changing(guarantee) | set(written(program)) | _bound_in(program)
+    for e, where in roots.values():
+        if bad := sorted(set(free_vars(e)) & changing):
+            raise KyxError(f"{_where(source, where)}: the square root of `{e}`, which may be negative and "
+                           f"changes with `{bad[0]}` (written by the program or bound by a quantifier), "
+                           "is not supported")
+    parts = list(assumptions.args) if assumptions.op == "and" else [assumptions]
+    first = next((k for k, c in enumerate(parts) if set(free_vars(c)) & set(roots)), len(parts))
+    pins = [And(Real(n) >= 0, Real(n) * Real(n) == e) for n, (e, _) in roots.items()]
+    conditions = tuple((f"the square root of `{e}` (named {n}) is of a number >= 0",
+                        Implies(And(*parts[:first]), e >= 0)) for n, (e, _) in roots.items())
+    return And(*parts[:first], *pins, *parts[first:]), conditions
+
+
+def _changing(f: Node) -> set[str]:
+    """Symbols a program inside f writes, or a quantifier in f binds."""
+    out: set[str] = set()
+    if f.op in MODALITIES:
+        out |= set(written(f.payload)) | _bound_in(f.payload)
+    if f.op in ("forall", "exists"):
+        out |= {v.payload for v in f.payload}
+    for a in f.args:
+        out |= _changing(a)
+    return out
+
+
+def _bound_in(p: Program) -> set[str]:
+    """Symbols quantifiers bind, or nested programs write, in p's tests and annotations."""
+    out: set[str] = set()
+    for f in _formulas_of(p):
+        out |= _changing(f)
+    for q in children(p):
+        out |= _bound_in(q)
+    return out
+
+
+def _formulas_of(p: Program) -> list[Node]:
+    if isinstance(p, Test):
+        return [p.cond]
+    if isinstance(p, ODE):
+        return [p.domain, *p.invariants]
+    if isinstance(p, Loop) and p.invariant is not None:
+        return [p.invariant]
+    return []
 
 
 def _described(item: Tree) -> str:

@@ -57,6 +57,9 @@ class Theorem:
         in (the safety proof is not vacuous), and find one.
     scenarios: extra assumptions the refuter tries first, e.g. `(G == 1,)`; they only
         restrict the initial states searched, so a run found under one is a real run.
+    well_defined: (what, formula) pairs a translation states for the claim to mean what it
+        says, e.g. `("the square root of g/p", Implies(p > 0, g / p >= 0))` when the kyx
+        reader names sqrt(g/p) by a symbol; each must be valid, or the claim is ill-defined.
     """
 
     name: str
@@ -73,6 +76,9 @@ class Theorem:
     # Extra assumptions the refuter tries first (e.g. axis-aligned boundaries): they only
     # restrict the initial states searched, so a run found under them is a real run.
     scenarios: tuple[Node, ...] = ()
+    # Side conditions of a translation (kyx square roots): each proved valid first, like the
+    # claim's own divisions (kind `defined`); one that fails makes the claim ill-defined.
+    well_defined: tuple[tuple[str, Node], ...] = ()
 
     def __post_init__(self) -> None:
         if self.expected not in VERDICTS:
@@ -80,6 +86,7 @@ class Theorem:
         object.__setattr__(self, "assumptions", formula(self.assumptions))
         object.__setattr__(self, "guarantee", formula(self.guarantee))
         object.__setattr__(self, "scenarios", tuple(formula(s) for s in self.scenarios))
+        object.__setattr__(self, "well_defined", tuple((str(w), formula(f)) for w, f in self.well_defined))
         check_well_formed(self)
 
     @property
@@ -97,11 +104,13 @@ class Theorem:
         expected verdict, every formula and program with the sort of each symbol, the
         invariants and differential invariants, abbreviations, constants, scenarios and
         flags. Two theorems with the same canonical text are the same claim."""
+        conditions = (("well_defined", tuple((w, f.key) for w, f in self.well_defined)),) \
+            if self.well_defined else ()  # (absent, a theorem's text and hash stay what they were)
         return repr((
             "certiloop-theorem/1", self.name, self.expected, self.assumptions.key, self.program.key,
             self.guarantee.key, tuple(sorted((k, v.key) for k, v in self.abbreviations.items())),
             tuple(c.key for c in self.constants), tuple(s.key for s in self.scenarios),
-            ("unroll", self.unroll), ("check_nonblocking", self.check_nonblocking),
+            ("unroll", self.unroll), ("check_nonblocking", self.check_nonblocking), *conditions,
         ))
 
     @property
@@ -175,6 +184,8 @@ def _visit(t: "Theorem", on_node: Callable[[Node, str], None],
         nodes(s, "a scenario")
     for c in t.constants:
         nodes(c, "the constants")
+    for what, condition in t.well_defined:
+        nodes(condition, f"well-definedness condition ({what})")
 
 
 def symbol_occurrences(t: "Theorem") -> list[tuple[str, Sort, str]]:

@@ -139,6 +139,8 @@ class VCGen:
         t = self.theorem
         assumptions = expand_modalities(t.assumptions, self.names)
         self.require_defined(State((), {}, ()), "the assumptions", assumptions)
+        for what, condition in t.well_defined:  # a translation's side conditions (kyx square roots)
+            self.emit(State((), {}, ()), condition, f"well-defined: {what}", "defined")
         start = State((assumptions,), {}, ())
         self.exec(t.program, start, self.postcondition)
         return self.obligations
