@@ -122,6 +122,12 @@ def test_differential_invariant_and_cut():
 
 def test_lie_derivative():
     assert str(lie_derivative(x * x + v * v, ode({x: v, v: -x}))) == "0"
+    # remembered per term and equations: the same term along another flow (or domain) is
+    # derived again, and asking twice gives the same derivative
+    for _ in range(2):
+        assert str(lie_derivative(x * x + v * v, ode({x: v, v: x}))) == "4*x*v"
+        assert str(lie_derivative(x * x + v * v, ode({x: v, v: -x}, x >= 0))) == "0"
+        assert str(lie_derivative(x * x + v * v, ode({x: 1, v: 0}))) == "2*x"
 
 
 def test_box_and_diamond_in_formulas():
