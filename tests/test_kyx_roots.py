@@ -70,7 +70,8 @@ def test_a_root_in_a_denominator_is_rationalised():
 
 
 def test_shapes_that_are_never_negative():
-    assert all(never_negative(e) for e in (x * x + y ** 2, (x - y) ** 2 * 3, const(0), (x ** 2 + 1) / (y ** 4)))
+    shapes = (x * x + y ** 2, (x - y) ** 2 * 3, const(0), (x ** 2 + 1) / (y ** 4))
+    assert all(never_negative(e) for e in shapes)
     assert not any(never_negative(e) for e in (x, x * y, x ** 3, x * x - 1, const(-1)))
     assert exact_root(Fraction(9, 4)) == Fraction(3, 2) and exact_root(Fraction(2)) is None
     assert exact_root(Fraction(-4)) is None

@@ -43,6 +43,7 @@ from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.core.wd import has_division
 from certiloop.proofs.engine.darboux import darboux_atoms
 from certiloop.proofs.engine.darboux_search import search_atoms
+from certiloop.proofs.engine.first_integrals import integral_atoms
 
 MAX_ROUNDS = 40
 # progress asks for p'', which for a cubic field in six variables takes sympy seconds to build
@@ -101,9 +102,10 @@ def candidates(theorem: Theorem, ode: ODE) -> tuple[list[Node], list[Node]] | No
     if solvable(ode):
         return None
     seen: dict[tuple, Node] = {}
-    # the search's atoms (none for an affine system) first: each is a Darboux identity, proved
-    # without a premise, so it needs no earlier link and gives every later link one more fact
-    first = And(*search_atoms(theorem, ode))
+    # the searches' atoms first (Darboux polynomials over QQ, none for an affine system; first
+    # integrals with parameters): each is proved without a premise, so it needs no earlier
+    # link and gives every later link one more fact
+    first = And(*search_atoms(theorem, ode), *integral_atoms(theorem, ode))
     for source in (first, theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))):
         for atom in _atoms(source):
             if atom.key not in seen and set(free_vars(atom)) & names and _usable(atom, ode):
