@@ -72,7 +72,7 @@ class Builder:
             if value.same(e):
                 return Real(name)
         used = self._used() | set(self.olds)
-        base = f"{e.payload}_old" if e.op == "var" else "old"
+        base = f"{e.payload}_old" if e.op == "var" and e.payload not in self.cases else "old"
         candidate, k = base, 1
         while candidate in used:
             k += 1
@@ -187,6 +187,8 @@ class Builder:
         if d is None and name == "sqrt":
             if len(args) != 1:
                 raise self.fail(t, f"sqrt takes 1 argument, got {len(args)}")
+            if args[0].sort == BOOL:
+                raise self.fail(t, f"`{self.shown(args[0])}` is a formula, used here as a term")
             return self.root(args[0], t)
         if d is None:
             if name in ("exp", "sin", "cos", "ln"):
@@ -255,13 +257,15 @@ class Builder:
             exponent = const(exponent.args[0].payload ** exponent.payload)
         if exponent.op == "const" and exponent.payload.denominator == 2:  # x^(k/2) = x^((k-1)/2)*sqrt(x)
             k = exponent.payload.numerator
+            if k < 0 and base.op == "const" and base.payload == 0:
+                raise self.fail(t, "division by the constant 0 (a negative power of 0)")
             whole = self.root(base, t)
             if abs(k) > 1:
                 whole = whole * base ** ((abs(k) - 1) // 2)
             return whole if k > 0 else div(const(1), whole)
         if exponent.op != "const" or exponent.payload.denominator != 1:
-            raise self.fail(t.children[1], f"exponent `{exponent}` is not supported: only integer "
-                            "literals and halves (square roots)")
+            raise self.fail(t.children[1], f"exponent `{self.shown(exponent)}` is not supported: only "
+                            "integer literals and halves (square roots)")
         if exponent.payload >= 0:
             return base ** int(exponent.payload)
         # x^-n is 1/x^n, a division: defined only where x != 0, which the claim's
@@ -285,8 +289,8 @@ class Builder:
         """sqrt(e): a number; a marker eliminated at its comparison when e is never negative by
         its shape; otherwise a symbol the reader pins down where the claim shows e >= 0."""
         if any(m in self.cases or m in self.named_roots for m in free_vars(e)):
-            raise self.fail(where, f"the square root of `{e}`, which holds abs/min/max or another root, "
-                            "is not supported")
+            raise self.fail(where, f"the square root of `{self.shown(e)}`, which holds abs/min/max or "
+                            "another root, is not supported")
         if e.op == "const":
             if e.payload < 0:
                 raise self.fail(where, f"the square root of the negative number {e.payload}")
@@ -313,6 +317,12 @@ class Builder:
             candidate = f"{base}{k}"
         self.made.add(candidate)
         return Real(candidate)
+
+    def shown(self, n: Node) -> Node:
+        """n for a message: abs/min/max and root markers written as the calls they stand for."""
+        markers = {m: Real(f"{kind}({', '.join(str(self.shown(a)) for a in args)})")
+                   for m, (kind, args) in self.cases.items() if m in free_vars(n)}
+        return substitute(n, markers) if markers else n
 
     def split_cases(self, f: Node, where=None) -> Node:
         """Replace abs/min/max markers in a first-order formula by a case split, and square

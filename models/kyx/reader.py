@@ -220,7 +220,8 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
     if meta.get("names"):
         f = _rename(f, meta["names"])
     assumptions, program, guarantee = split_problem(f, exact=meta.get("shape") == "A->[a]P")
-    assumptions, root_conditions = _pin_roots(builder.named_roots, assumptions, program, guarantee, source)
+    roots = {n: (_rename(e, meta.get("names", {})), where) for n, (e, where) in builder.named_roots.items()}
+    assumptions, root_conditions = _pin_roots(roots, assumptions, program, guarantee, source)
     for part, what in ((assumptions, "an assumption"), (guarantee, "the guarantee")):
         if _nested_loop(part):
             raise KyxError(f"{_where(source, problem)}: a loop inside {what}'s modality is not "
@@ -255,11 +256,11 @@ def _pin_roots(roots: dict[str, tuple[Node, object]], assumptions: Node, program
                guarantee: Node, source: str) -> tuple[Node, tuple[tuple[str, Node], ...]]:
     """The assumptions with each named square root s of e pinned, `s >= 0 & s^2 = e`, and
     the side conditions that make this exact. No program writes e's symbols and no
-    quantifier binds them, so e keeps its initial value in every run. The pins go right
-    after the first assumptions that use no root: read left to right, those are evaluated
-    first, and the claim is well-defined only where they give e >= 0 (`those -> e >= 0`
-    valid). Then in every state they allow, s is sqrt(e), and where they fail, both claims
-    hold for want of an assumption."""
+    quantifier binds them, so e keeps its initial value in every run. Each pin goes right
+    before the first assumption that uses its root: read left to right, the ones before it
+    are evaluated first, and the claim is well-defined only where they give e >= 0 (`those
+    -> e >= 0` valid). Then in every state they allow, s is sqrt(e), and where one of them
+    fails, both claims hold for want of an assumption."""
     if not roots:
         return assumptions, ()
     changing = _changing(assumptions) | _changing(guarantee) | set(written(program)) | _bound_in(program)
@@ -269,11 +270,22 @@ def _pin_roots(roots: dict[str, tuple[Node, object]], assumptions: Node, program
                            f"changes with `{bad[0]}` (written by the program or bound by a quantifier), "
                            "is not supported")
     parts = list(assumptions.args) if assumptions.op == "and" else [assumptions]
-    first = next((k for k, c in enumerate(parts) if set(free_vars(c)) & set(roots)), len(parts))
-    pins = [And(Real(n) >= 0, Real(n) * Real(n) == e) for n, (e, _) in roots.items()]
-    conditions = tuple((f"the square root of `{e}` (named {n}) is of a number >= 0",
-                        Implies(And(*parts[:first]), e >= 0)) for n, (e, _) in roots.items())
-    return And(*parts[:first], *pins, *parts[first:]), conditions
+    out: list[Node] = []
+    conditions: list[tuple[str, Node]] = []
+    waiting = dict(roots)
+
+    def pin(names: list[str]) -> None:
+        for n in names:
+            e, _ = waiting.pop(n)
+            conditions.append((f"the square root of `{e}` (named {n}) is of a number >= 0",
+                               Implies(And(*out), e >= 0)))
+            out.append(And(Real(n) >= 0, Real(n) * Real(n) == e))
+
+    for part in parts:
+        pin([n for n in waiting if n in free_vars(part)])
+        out.append(part)
+    pin(list(waiting))  # roots only the program or the guarantee takes
+    return And(*out), tuple(conditions)
 
 
 def _changing(f: Node) -> set[str]:

@@ -5,7 +5,9 @@ a negative number, so each comparison using it is replaced by an equivalent one 
 with s = sqrt(e) >= 0 and s^2 = e, a term is A + B*s (A, B polynomials, s^2 reduced to e)
 and its sign follows from the signs of A, B and A^2 - B^2*e (`sign_condition`). Any other
 root is named by a symbol the reader pins in the assumptions (s >= 0 & s^2 = e), which is
-exact only where e >= 0: that is a side condition of the claim (kyx/reader.py)."""
+exact only where e >= 0: that is a side condition of the claim (kyx/reader.py). A never-negative
+argument has no division but by a number: the sign condition evaluates e only in some of its
+branches, so a division there would escape the claim's check for division by zero."""
 
 from __future__ import annotations
 
@@ -26,8 +28,11 @@ def exact_root(c: Fraction) -> Fraction | None:
 
 
 def never_negative(e: Node) -> bool:
-    """e >= 0 wherever e is defined, by its shape: constants >= 0, even powers, x*x, and
-    sums, products and quotients of such."""
+    """e >= 0 everywhere, by its shape: constants >= 0, even powers, x*x, and sums, products
+    and quotients by positive numbers of such. Not `1/x^2`: a comparison's sign condition
+    does not always evaluate e, so a division inside it would escape its check for zero."""
+    if e.op == "/" and not (e.args[1].op == "const" and e.args[1].payload > 0):
+        return False
     if e.op == "const":
         return e.payload >= 0
     if e.op == "^":
