@@ -241,3 +241,15 @@ def test_each_root_is_pinned_after_the_assumptions_before_its_own_first_use():
 def test_messages_name_what_was_written(text, message):
     (e,) = read_entries(f'ArchiveEntry "a" ProgramVariables Real x; End. {text} End. End.', "f.kyx")
     assert e.theorem is None and message in e.error and "@" not in e.error, e.error
+
+
+def test_old_of_a_root_or_abs_is_its_value_before_the_flow():
+    # old(e) is assigned like any assignment: a marker left in it would be an unknown value
+    for problem, expected in [
+            ("x = 0 & t = 0 -> [{x' = 1, t' = 1}@invariant(x = old(sqrt(x^2 + 1)) - 1 + t)] x >= 0", "proved"),
+            ("x = -1 & t = 0 -> [{x' = 1, t' = 1}@invariant(x = -old(abs(x)) + t)] x >= -1", "proved"),
+            ("x = 0 & t = 0 -> [{x' = 1, t' = 1}@invariant(x = old(sqrt(x^2 + 1)) - 1 + t)] x >= 1", "refuted")]:
+        text = f'ArchiveEntry "o" ProgramVariables Real x; Real t; End. Problem {problem} End. End.'
+        assert prove(text).verdict == expected, problem
+    # the flow x(t) = x0 + t from x0 = 0: x = sqrt(0 + 1) - 1 + t, >= 0 always, and 0 < 1 at t = 0
+    assert all(0 + t == math.sqrt(0 + 1) - 1 + t >= 0 for t in (0.0, 0.5, 2.0))

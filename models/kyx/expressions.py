@@ -487,7 +487,7 @@ class Builder:
         except ModelError as exc:
             raise self.fail(t, str(exc)) from None
         # old(e): remember e just before the flow
-        return seq(*(assign(Real(n), e) for n, e in olds.items()), system) if olds else system
+        return seq(*(self._assign(Real(n), e, t) for n, e in olds.items()), system) if olds else system
 
     def _annotations(self, notes: list[Tree], env) -> list[Node]:
         out: list[Node] = []
