@@ -245,10 +245,11 @@ def test_messages_name_what_was_written(text, message):
 
 def test_old_of_a_root_or_abs_is_its_value_before_the_flow():
     # old(e) is assigned like any assignment: a marker left in it would be an unknown value
+    flow = "{x' = 1, t' = 1}"
     for problem, expected in [
-            ("x = 0 & t = 0 -> [{x' = 1, t' = 1}@invariant(x = old(sqrt(x^2 + 1)) - 1 + t)] x >= 0", "proved"),
-            ("x = -1 & t = 0 -> [{x' = 1, t' = 1}@invariant(x = -old(abs(x)) + t)] x >= -1", "proved"),
-            ("x = 0 & t = 0 -> [{x' = 1, t' = 1}@invariant(x = old(sqrt(x^2 + 1)) - 1 + t)] x >= 1", "refuted")]:
+            (f"x = 0 & t = 0 -> [{flow}@invariant(x = old(sqrt(x^2 + 1)) - 1 + t)] x >= 0", "proved"),
+            (f"x = -1 & t = 0 -> [{flow}@invariant(x = -old(abs(x)) + t)] x >= -1", "proved"),
+            (f"x = 0 & t = 0 -> [{flow}@invariant(x = old(sqrt(x^2 + 1)) - 1 + t)] x >= 1", "refuted")]:
         text = f'ArchiveEntry "o" ProgramVariables Real x; Real t; End. Problem {problem} End. End.'
         assert prove(text).verdict == expected, problem
     # the flow x(t) = x0 + t from x0 = 0: x = sqrt(0 + 1) - 1 + t, >= 0 always, and 0 < 1 at t = 0
