@@ -16,8 +16,9 @@ DEFAULT_RLIMIT = 2_000_000
 QUICK_SHARE = 40  # the per-branch report beside a refutation: 1/40 of the full budget
 PROJECTED_CEX_SHARE = 4  # raw forms of an obligation whose projection has a counterexample
 PLAN_SHARE = 10  # each trial of an ODE cut chain's link (proofs/engine/odeplan.py)
-# A proof's first pass gives each obligation this share; only when none is refuted do the
-# open ones get the whole budget (prover._screened): a failing proof stops spending early.
+# A proof's obligations go in waves of WAVE; once one is refuted the proof cannot succeed,
+# and the later waves get this share (prover._screened): a failing proof stops spending early.
+WAVE = 8
 SCREEN_SHARE = 10
 # A search for a violating run explores a whole unrolled program at once: it gets 6 times
 # an obligation's budget (the library's hardest run, sbs.predictive_multi, needs ~4.7M units

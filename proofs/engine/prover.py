@@ -17,7 +17,7 @@ from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.vacuity import nonblocking_obligations
 from certiloop.proofs.core.vcgen import Obligation, TooManyObligations, generate
 from certiloop.proofs.core.verdicts import ObligationResult, RunEvidence, decide_theorem, readable
-from certiloop.proofs.engine.budget import PLAN_SHARE, QUICK_SHARE, SCREEN_SHARE, Budget
+from certiloop.proofs.engine.budget import PLAN_SHARE, QUICK_SHARE, SCREEN_SHARE, WAVE, Budget
 from certiloop.proofs.engine.discharge import discharge_one
 from certiloop.proofs.engine.odeplan import plan_odes
 
@@ -304,16 +304,22 @@ class Prover:
 
     def _screened(self, obligations: list[Obligation],
                   on_result: Callable[[ObligationResult], None] | None) -> list[ObligationResult]:
-        """Every obligation with a share of the budget first; the ones left open then get the
-        whole budget, unless one was refuted: then this proof cannot succeed (an obligation
-        refuted with a share is refuted with any budget, its counterexample being exact),
-        and only the ones about well-definedness get it, as they decide whether the claim
-        means anything. A proof that holds is found as before, at most a tenth dearer; one
-        that fails no longer spends a whole budget on each open obligation (IJRR17 Theorem
-        13: three of 2,000,000 units, 20 s each, beside three refuted links)."""
-        first = self._discharge(obligations, None, self.budget.share(SCREEN_SHARE))
-        lost = any(r.verdict == "refuted" for r in first)
-        results = self._redischarge(obligations, first, everything=not lost)
+        """The obligations in waves of WAVE, in order, each with the whole budget, until one
+        is refuted: then this proof cannot succeed (an obligation refuted with some budget is
+        refuted with any, its counterexample being exact), and the later waves get a share,
+        all but those about well-definedness, which decide whether the claim means anything.
+        A proof that holds costs what it did; one that fails early no longer spends a whole
+        budget on every open obligation after it (IJRR17 Theorem 13: three of 2,000,000
+        units, 20 s each, after a refuted link). Waves of a fixed size, not the order the
+        workers finish in, decide: the report is the same on every machine."""
+        results: list[ObligationResult] = []
+        for k in range(0, len(obligations), WAVE):
+            wave = obligations[k:k + WAVE]
+            if any(r.verdict == "refuted" for r in results):
+                share = self._discharge(wave, None, self.budget.share(SCREEN_SHARE))
+                results += self._redischarge(wave, share, everything=False)
+            else:
+                results += self._discharge(wave, None, self.budget)
         if on_result:
             for r in results:
                 on_result(r)
