@@ -36,6 +36,7 @@ from certiloop.models.kyx.syntax import (
     _where,
     parse_tree,
 )
+from certiloop.models.lang.nesting import loop_nesting_problem, tests_have_loops
 from certiloop.models.lang.programs import (
     ODE,
     Assign,
@@ -222,10 +223,13 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
     assumptions, program, guarantee = split_problem(f, exact=meta.get("shape") == "A->[a]P")
     roots = {n: (_rename(e, meta.get("names", {})), where) for n, (e, where) in builder.named_roots.items()}
     assumptions, root_conditions = _pin_roots(roots, assumptions, program, guarantee, source)
-    for part, what in ((assumptions, "an assumption"), (guarantee, "the guarantee")):
-        if _nested_loop(part):
-            raise KyxError(f"{_where(source, problem)}: a loop inside {what}'s modality is not "
-                           "supported (only the outermost [..] of the Problem may hold loops)")
+    if _nested_loop(assumptions):
+        raise KyxError(f"{_where(source, problem)}: a loop inside an assumption's modality is not supported")
+    if tests_have_loops(program):
+        raise KyxError(f"{_where(source, problem)}: the Problem holds a loop inside a test `?..` of a "
+                       "program, which is not supported")
+    if why := loop_nesting_problem(guarantee):
+        raise KyxError(f"{_where(source, problem)}: the Problem holds {why}, which is not supported")
     names = meta.get("names", {})
     constants = [Real(names.get(n, n)) for n, d in scope.defs.items()
                  if d.kind == "constant" and n not in scope.bools]

@@ -31,6 +31,7 @@ from certiloop.models.lang.terms import (
     Sort,
     formula,
     free_vars,
+    term,
 )
 
 VERDICTS = ("proved", "refuted")
@@ -60,6 +61,10 @@ class Theorem:
     well_defined: (what, formula) pairs a translation states for the claim to mean what it
         says, e.g. `("the square root of g/p", Implies(p > 0, g / p >= 0))` when the kyx
         reader names sqrt(g/p) by a symbol; each must be valid, or the claim is ill-defined.
+    witnesses: (variable, term) pairs, proof hints for an `\\exists v` of the guarantee whose
+        body holds a loop: the core proves the body with v := term, evaluated where the
+        quantifier stands, e.g. `("del", eps)` for stability's `\\exists del`. Any term is sound
+        (a bad one only fails to prove); the prover also tries its own.
     """
 
     name: str
@@ -79,6 +84,8 @@ class Theorem:
     # Side conditions of a translation (kyx square roots): each proved valid first, like the
     # claim's own divisions (kind `defined`); one that fails makes the claim ill-defined.
     well_defined: tuple[tuple[str, Node], ...] = ()
+    # Proof hints: a term for each \exists v around a loop in the guarantee (see nesting.py)
+    witnesses: tuple[tuple[str, Node], ...] = ()
 
     def __post_init__(self) -> None:
         if self.expected not in VERDICTS:
@@ -87,6 +94,7 @@ class Theorem:
         object.__setattr__(self, "guarantee", formula(self.guarantee))
         object.__setattr__(self, "scenarios", tuple(formula(s) for s in self.scenarios))
         object.__setattr__(self, "well_defined", tuple((str(w), formula(f)) for w, f in self.well_defined))
+        object.__setattr__(self, "witnesses", tuple((str(v), term(t)) for v, t in self.witnesses))
         check_well_formed(self)
 
     @property
@@ -106,6 +114,7 @@ class Theorem:
         flags. Two theorems with the same canonical text are the same claim."""
         conditions = (("well_defined", tuple((w, f.key) for w, f in self.well_defined)),) \
             if self.well_defined else ()  # (absent, a theorem's text and hash stay what they were)
+        conditions += (("witnesses", tuple((v, t.key) for v, t in self.witnesses)),) if self.witnesses else ()
         return repr((
             "certiloop-theorem/1", self.name, self.expected, self.assumptions.key, self.program.key,
             self.guarantee.key, tuple(sorted((k, v.key) for k, v in self.abbreviations.items())),

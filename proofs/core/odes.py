@@ -139,12 +139,29 @@ def dI_condition(inv: Node, ode: ODE) -> Node:
 # --------------------------------------------------------------------------- domain along flow
 
 
+# (domain, solution) -> holds_along at the duration _TAU: a pure function, asked again for each
+# path through a program that reaches the ODE (a 6-mode hybrid automaton: 600 times per proof)
+_ALONG: dict[tuple, Node] = {}
+_MAX_ALONG = 5_000
+_TAU = Real("tau@along")  # users cannot write '@'
+
+
 def holds_along(domain: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
     """∀s∈[0,τ] domain(x(s)), as a quantifier-free formula when it can be done exactly.
 
     Atoms affine in s hold on [0,τ] iff they hold at both ends; quadratic atoms also need
     the vertex checked; anything else keeps the quantifier (exact, but harder for z3).
     """
+    key = (domain.key, tuple(sorted((n, x.key) for n, x in solution.items())), s.key)
+    got = _ALONG.get(key)
+    if got is None:
+        if len(_ALONG) >= _MAX_ALONG:
+            _ALONG.clear()
+        got = _ALONG[key] = _holds_along(domain, solution, _TAU, s)
+    return substitute(got, {_TAU.payload: tau})
+
+
+def _holds_along(domain: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
     conj = domain.args if domain.op == "and" else (domain,)
     parts = []
     for atom in conj:
@@ -323,16 +340,34 @@ def darboux_identity(p: Node, g: Node, ode: ODE) -> bool:
     return sympy.cancel(sympy.expand(diff)) == 0
 
 
+# (atom, ODE equations, method, cofactor) -> premise: a pure function, asked again for every
+# path through the program that reaches the ODE, each planning round
+_PREMISES: dict[tuple, Node | None] = {}
+_MAX_PREMISES = 20_000
+
+
 def atom_premise(atom: Node, ode: ODE, method: str, cofactor: Node | None = None) -> Node | None:
     """What `method` must show inside the domain (and after the earlier atoms) for the atom
     to be invariant; None when nothing is left to show (a Darboux identity, checked here)."""
+    key = (atom.key, tuple((v.key, rhs.key) for v, rhs in ode.eqs), method,
+           None if cofactor is None else cofactor.key)
+    if key in _PREMISES:
+        return _PREMISES[key]
+    got = _atom_premise(atom, ode, method, cofactor)  # a refusal raises, and is not kept
+    if len(_PREMISES) >= _MAX_PREMISES:
+        _PREMISES.clear()
+    _PREMISES[key] = got
+    return got
+
+
+def _atom_premise(atom: Node, ode: ODE, method: str, cofactor: Node | None = None) -> Node | None:
     guard, core = guarded(atom)
     if guard is not None:
         moving = set(free_vars(guard)) & {v.payload for v in ode.variables}
         if moving or _modal(guard):
             raise ModelError(f"differential invariant `{atom}`: its condition must stay constant along "
                              f"the flow (it mentions {', '.join(sorted(moving)) or 'a modality'})")
-        inner = atom_premise(core, ode, method, cofactor)
+        inner = _atom_premise(core, ode, method, cofactor)
         return None if inner is None else Implies(guard, inner)
     p, op = atom_polynomial(atom)
     dp = lie_derivative(p, ode)

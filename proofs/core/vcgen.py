@@ -16,21 +16,33 @@ Rules, in dL terms:
   a* / inv J    init: Γ -> J;  step: J -> [a]J (written vars fresh);  use: J -> P
   ODE           solve (polynomial solution, domain along the whole flow), or a dC chain
                 of dI invariants, or dW (written vars fresh, domain assumed)
+
+A guarantee holding a loop inside a modality (models/lang/nesting.py) is taken apart by the
+sequent rules before anything is emitted: ∧R (each conjunct), →R (the left joins the facts),
+∨R (the other disjuncts false), ∀R (fresh symbols), ∃R (the witness term the theorem gives,
+evaluated here), and [a]P by executing a from this state as above, its loops by the loop rule
+with their annotation or else the box's own postcondition as invariant.
 """
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from typing import Callable
 
+from certiloop.models.lang.nesting import has_loop_modality, loop_nesting_problem
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import (
     BOOL,
+    FALSE,
     REAL,
+    TRUE,
     And,
     Implies,
     ModelError,
     Node,
+    Not,
+    Or,
     Var,
     store,
     substitute,
@@ -62,7 +74,8 @@ class Obligation:
     stronger: tuple[tuple[str, Node], ...] = field(default=(), compare=False)
     # the incomplete proof rule (dW, dI, a loop invariant, ...) this obligation depends on, if
     # any: when it is false, that rule failed to apply, which does not make the claim false.
-    # A label for reports only; it never affects a verdict.
+    # A label for reports; it never changes a verdict (a failed division check past it is not
+    # shown as the claim dividing by zero: the state may be one no run reaches).
     rule: str = field(default="", compare=False)
     # (ODE key, link number, "init" | "premise") for the links of an ODE's cut chain, so a
     # planner can see which link failed; a label only
@@ -133,6 +146,12 @@ class VCGen:
     names: Names = field(default_factory=Names)
     obligations: list[Obligation] = field(default_factory=list)
     limit: int | None = None  # more obligations than this: TooManyObligations (a count, not a clock)
+    # the postcondition of the box a nested loop sits in: its invariant when it has none
+    nested_posts: list[Node] = field(default_factory=list)
+    # inside a guarantee taken apart: its parts are checked in more states than the
+    # left-to-right reading evaluates them in, so a division there is the proof's failure
+    # (unknown), never the claim's (ill-defined)
+    taking_apart: bool = False
 
     # ---- entry point
     def run(self) -> list[Obligation]:
@@ -146,8 +165,76 @@ class VCGen:
         return self.obligations
 
     def postcondition(self, st: State) -> None:
-        self.require_defined(st, "the guarantee", self.theorem.guarantee)
-        self.emit(st, self.theorem.guarantee, "postcondition")
+        guarantee = self.theorem.guarantee
+        if has_loop_modality(guarantee):
+            if why := loop_nesting_problem(guarantee):
+                raise ModelError(f"the guarantee holds {why}: not supported")
+            self.taking_apart = True
+            try:
+                self.establish(st, guarantee)
+            finally:
+                self.taking_apart = False
+            return
+        self.require_defined(st, "the guarantee", guarantee)
+        self.emit(st, guarantee, "postcondition")
+
+    def establish(self, st: State, goal: Node) -> None:
+        """Obligations for a goal holding loops inside modalities, by the sequent rules (see
+        the module's docstring). Each part is checked defined where it is evaluated, as one
+        more thing the proof needs (kind safety: these checks ignore the left-to-right
+        reading, so a failing one says unknown, never ill-defined)."""
+        if not has_loop_modality(goal):
+            self.require_defined(st, "the guarantee", goal, annotation=True)
+            self.emit(st, goal, "postcondition")
+            return
+        op = goal.op
+        if op == "and":
+            for n, part in enumerate(goal.args, 1):
+                self.establish(st.at(f"conjunct {n}"), part)
+        elif op == "implies":
+            self.establish(self._assumed(st, goal.args[0]), goal.args[1])
+        elif op == "or":
+            others = [a for a in goal.args if not has_loop_modality(a)]
+            looping = next(a for a in goal.args if has_loop_modality(a))
+            self.establish(self._assumed(st, Not(Or(*others))), looping)
+        elif op == "forall":
+            self.names.count += 1
+            event = self.names.count
+            st = st.bind({v.payload: self.names.fresh(v, why=f"any {v.payload}", event=event)
+                          for v in goal.payload})
+            self.establish(st, goal.args[0])
+        elif op == "exists":
+            self._exists(st, goal)
+        elif op == "box":
+            post = goal.args[0]
+            self.nested_posts.append(TRUE if has_loop_modality(post) else post)
+            try:
+                self.exec(goal.payload, st.at(f"[{_short(goal.payload)}]"), lambda s: self.establish(s, post))
+            finally:
+                self.nested_posts.pop()
+        else:  # loop_nesting_problem refused these
+            raise ModelError(f"cannot take apart `{goal}`")
+
+    def _assumed(self, st: State, fact: Node) -> State:
+        self.require_defined(st, "the guarantee", fact, annotation=True)
+        return st.assume(st.value(expand_modalities(fact, self.names, positive=False)))
+
+    def _exists(self, st: State, goal: Node) -> None:
+        """∃R: the body at the theorem's witness terms, each evaluated in this state (so a
+        program in the body that writes a symbol of the term does not change it)."""
+        chosen = dict(self.theorem.witnesses)
+        missing = [v.payload for v in goal.payload if v.payload not in chosen]
+        if missing:  # nothing to prove it with: an obligation that cannot be proved
+            self.emit(st.via(f"∃{missing[0]}", "witness"), FALSE, f"a witness for ∃{missing[0]}")
+            return
+        values = {}
+        for v in goal.payload:
+            w = chosen[v.payload]
+            if w.sort != v.sort or w.sort == BOOL:
+                raise ModelError(f"the witness `{w}` for ∃{v.payload} has sort {w.sort}, not {v.sort}")
+            self.require_defined(st, f"the witness for ∃{v.payload}", w, annotation=True)
+            values[v.payload] = st.value(w)
+        self.establish(st.bind(values).via(f"∃{','.join(values)}", "witness"), goal.args[0])
 
     def emit(self, st: State, goal: Node, what: str, kind: str = "safety", step: tuple = ()) -> None:
         goal = st.value(expand_modalities(goal, self.names, positive=True))
@@ -168,7 +255,7 @@ class VCGen:
         expanded = [expand_modalities(f, self.names) if f.sort == BOOL else f for f in parts]
         if any(has_division(f) for f in expanded):
             self.emit(st, And(*(defined(f) for f in expanded)), f"well-defined: {what} (no division by 0)",
-                      "safety" if annotation else "defined")
+                      "safety" if annotation or self.taking_apart else "defined")
 
     def havoc(self, st: State, variables: dict[str, Node], why: str) -> State:
         self.names.count += 1
@@ -215,8 +302,11 @@ class VCGen:
 
     def _loop(self, p: Loop, st: State, k: Callable[[State], None]) -> None:
         inv = p.invariant
-        if inv is None:
-            inv = self.theorem.guarantee
+        if inv is None and self.nested_posts:
+            inv = self.nested_posts[-1]
+        elif inv is None:
+            guarantee = self.theorem.guarantee
+            inv = TRUE if has_loop_modality(guarantee) else guarantee
         # with the guarantee as invariant, "holds initially" is exact: zero iterations are a run
         init = st.at(f"{p.label} init") if p.invariant is None else st.via(f"{p.label} init", "loop-init")
         assumed = "guarantee-as-invariant" if p.invariant is None else "loop-invariant"
@@ -242,7 +332,7 @@ class VCGen:
         flow = And(defined(p.domain), Implies(p.domain, And(*(defined(f) for _, f in p.eqs))))
         if flow.op != "true":
             self.emit(anywhere, flow, "well-defined: right-hand side and domain (no division by 0)",
-                      "defined")
+                      "safety" if self.taking_apart else "defined")
 
     def _ode(self, p: ODE, st: State, k: Callable[[State], None]) -> None:
         self._ode_region(p, st)
@@ -297,11 +387,17 @@ PREMISE_NAMES = {"nonzero": "never zero in the domain"}
 
 # which incomplete rule to blame when several lie on a path: an ODE that lost information
 # explains a failure downstream better than the loop around it
-BLAME_ORDER = ("dW", "dI", "dI-init", "dC", "guarantee-as-invariant", "loop-invariant", "loop-init")
+BLAME_ORDER = ("dW", "dI", "dI-init", "dC", "guarantee-as-invariant", "loop-invariant", "loop-init",
+               "witness")
 
 
 def _blamed(rules: tuple[str, ...]) -> str:
     return min(rules, key=BLAME_ORDER.index, default="")
+
+
+def _short(p: Program, width: int = 32) -> str:
+    text = " ".join(re.sub(r"/\*.*?\*/", "", str(p)).split())
+    return text if len(text) <= width else text[:width - 3] + "..."
 
 
 def _root(target: Node) -> Node:

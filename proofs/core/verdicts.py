@@ -133,12 +133,14 @@ def decide_theorem(obligations: list[ObligationResult], run: RunEvidence | None,
     if undefined:
         first = undefined[0]
         shown = ", ".join(f"{k} = {v}" for k, v in (first.counterexample or {}).items())
-        ill = first.verdict == "refuted"
+        # a state past an incomplete rule (a loop invariant, dW) may be one no run reaches
+        ill = first.verdict == "refuted" and not first.rule
         at = f" ({shown})" if shown else ""
         if "division" not in first.path:  # a translation's side condition (Theorem.well_defined)
             how = f"it fails{at}" if ill else f"it is not shown ({first.reason})"
             return Decision("unknown", f"ill-defined: {first.path}: {how}", ill_defined=ill)
-        how = f"it can be by zero{at}" if ill else f"it is not shown nonzero ({first.reason})"
+        how = (f"it can be by zero{at}" if ill else f"it is not shown nonzero past {first.rule}"
+               if first.verdict == "refuted" else f"it is not shown nonzero ({first.reason})")
         return Decision("unknown", f"ill-defined: {first.path}: a division in the claim itself, and {how}",
                         ill_defined=ill)
     if confirmed and run.negation_proved:

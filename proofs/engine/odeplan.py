@@ -25,8 +25,9 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Callable
 
+from certiloop.models.lang.nesting import has_loop_modality
 from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq
-from certiloop.models.lang.terms import And, Implies, ModelError, Node, Not, cmp, free_vars
+from certiloop.models.lang.terms import TRUE, And, Implies, ModelError, Node, Not, cmp, free_vars
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.instantiate import has_quantifier
 from certiloop.proofs.core.odes import (
@@ -72,6 +73,39 @@ def odes_of(p: Program) -> list[ODE]:
     return list(found.values())
 
 
+def theorem_odes(theorem: Theorem) -> list[ODE]:
+    """The ODEs the core proves by a chain: the program's, and those of the guarantee's boxes
+    that hold a loop (the core executes them; a loop-free box is expanded exactly)."""
+    found = {ode.key: ode for ode in odes_of(theorem.program)}
+
+    def walk(f: Node) -> None:
+        if f.op == "box" and has_loop_modality(f):
+            for ode in odes_of(f.payload):
+                found.setdefault(ode.key, ode)
+        for a in f.args:
+            walk(a)
+
+    walk(theorem.guarantee)
+    return list(found.values())
+
+
+def goals(f: Node) -> tuple[Node, Node]:
+    """(what must hold, what is assumed) inside a guarantee that holds loops: the
+    postconditions of its boxes and the left sides of its implications, as conjunctions; for
+    any other guarantee, (itself, true)."""
+    if not has_loop_modality(f):
+        return f, TRUE
+    if f.op == "box":
+        return goals(f.args[0])
+    if f.op == "implies":
+        must, assumed = goals(f.args[1])
+        return must, And(f.args[0], assumed)
+    if f.op in ("and", "or", "forall", "exists"):
+        parts = [goals(a) for a in f.args]
+        return And(*(m for m, _ in parts)), And(*(a for _, a in parts))
+    return TRUE, TRUE
+
+
 def _usable(atom: Node, ode: ODE) -> bool:
     """An atom the core can take as a link: a comparison of arithmetic terms, no division
     by a term, and a derivative it can compute."""
@@ -88,6 +122,7 @@ def candidates(theorem: Theorem, ode: ODE) -> tuple[list[Node], list[Node]] | No
     """Atoms to build the ODE's chain from, and atoms to append once those have settled; or
     None to leave the ODE to the core's default."""
     names = {v.payload for v in ode.variables}
+    guarantee, hypotheses = goals(theorem.guarantee)
     if ode.invariants:
         # the author's atoms, then the guarantee's: once those are known, the nonzero rule can
         # show the guarantee's sign is kept (Hamiltonian System 1: x <= 0 under two level sets).
@@ -96,7 +131,7 @@ def candidates(theorem: Theorem, ode: ODE) -> tuple[list[Node], list[Node]] | No
         # author's atom of degree 5 costs a whole budget again (Bhatia Szego: 22 s, not 43 s)
         annotated = [a for inv in ode.invariants for a in conjuncts(inv)]
         seen = {a.key for a in annotated}
-        extra = [a for a in _atoms(theorem.guarantee)
+        extra = [a for a in _atoms(guarantee)
                  if a.key not in seen and set(free_vars(a)) & names and _usable(a, ode)]
         return annotated, list({a.key: a for a in extra}.values())
     if solvable(ode):
@@ -106,7 +141,7 @@ def candidates(theorem: Theorem, ode: ODE) -> tuple[list[Node], list[Node]] | No
     # integrals with parameters): each is proved without a premise, so it needs no earlier
     # link and gives every later link one more fact
     first = And(*search_atoms(theorem, ode), *integral_atoms(theorem, ode))
-    for source in (first, theorem.guarantee, ode.domain, theorem.assumptions, And(*darboux_atoms(ode))):
+    for source in (first, guarantee, ode.domain, theorem.assumptions, hypotheses, And(*darboux_atoms(ode))):
         for atom in _atoms(source):
             if atom.key not in seen and set(free_vars(atom)) & names and _usable(atom, ode):
                 seen[atom.key] = atom
@@ -173,7 +208,7 @@ def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResu
               certify: bool = False) -> Plan | None:
     """A chain per ODE whose links' obligations all discharge, as far as the search gets;
     None when no ODE of the theorem is open to planning (with certify: to a certificate)."""
-    odes = odes_of(theorem.program)
+    odes = theorem_odes(theorem)
     steps = {}
     if certify:  # imported here: numpy and the SDP code cost every CLI run 0.08 s otherwise
         from certiloop.proofs.engine.certificates import certificate_steps

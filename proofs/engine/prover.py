@@ -20,6 +20,7 @@ from certiloop.proofs.core.verdicts import ObligationResult, RunEvidence, decide
 from certiloop.proofs.engine.budget import PLAN_SHARE, QUICK_SHARE, SCREEN_SHARE, WAVE, Budget
 from certiloop.proofs.engine.discharge import discharge_one
 from certiloop.proofs.engine.odeplan import plan_odes
+from certiloop.proofs.engine.witnesses import WITNESS_RETRY_OBLIGATIONS, witness_options
 
 
 @dataclass
@@ -162,6 +163,8 @@ class Prover:
     ) -> TheoremResult:
         """search=False only discharges the obligations: a theorem not proved is then
         'unknown', without the (costly) search for a violating run."""
+        if options := witness_options(theorem):
+            return self._witnessed(theorem, options, on_result, on_start, smtlib_dir)
         start = time.perf_counter()
         self._memo = {}
         too_many: TooManyObligations | None = None
@@ -224,6 +227,36 @@ class Prover:
                                inconsistent=decision.inconsistent)
         if theorem.check_nonblocking and decision.verdict == "proved":
             self._vacuity(theorem, result)
+        result.seconds = time.perf_counter() - start
+        return result
+
+    def _witnessed(self, theorem: Theorem, options: list, on_result, on_start, smtlib_dir) -> TheoremResult:
+        """The guarantee's ∃s around loops proved with each choice of witness terms in turn
+        (witnesses.py; any choice is sound) until one proves the claim; else the attempt that
+        left the fewest obligations open, unknown. A proof with more than
+        WITNESS_RETRY_OBLIGATIONS obligations gets one attempt. No run can refute such a claim (a run
+        shows a box false, not an ∃), so there is no search for one."""
+        start = time.perf_counter()
+        best = None
+        for option in options:
+            attempt = self.prove(replace(theorem, witnesses=option), smtlib_dir=smtlib_dir, search=False)
+            still_open = sum(r.verdict != "proved" for r in attempt.obligations)
+            if best is None or still_open < best[0]:
+                best = (still_open, attempt, option)
+            if attempt.verdict == "proved" or len(attempt.obligations) > WITNESS_RETRY_OBLIGATIONS:
+                break  # a large proof is not tried again (a count, not a clock)
+        _, result, option = best
+        given = len(theorem.witnesses)
+        chosen = ", ".join(f"{v} := {t}" for v, t in option[given:])
+        if result.verdict == "proved":
+            result.reason = f"with the witness {chosen}" + (f"; {result.reason}" if result.reason else "")
+        else:
+            tried = "; ".join(", ".join(f"{v} := {t}" for v, t in o[given:]) for o in options)
+            result.reason = f"{result.reason} (witnesses tried: {tried}; the closest: {chosen})"
+        if on_start:
+            on_start(len(result.obligations))
+        for r in result.obligations if on_result else ():
+            on_result(r)
         result.seconds = time.perf_counter() - start
         return result
 

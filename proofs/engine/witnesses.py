@@ -1,0 +1,61 @@
+"""Choosing witness terms for the guarantee's `\\exists v` around a loop (search, outside the
+trusted core: the core proves the body with v := the term, and any term is sound, so a bad
+choice only fails to prove).
+
+Stability claims read `\\forall eps (eps > 0 -> \\exists del (del > 0 & \\forall x (|x| < del
+-> [sys*] |x| < eps)))`; the witnesses tried are the variables the path to the quantifier
+binds with `\\forall`, latest first, then their halves and tenths (a smaller ball of starts
+is easier to keep inside), then 1.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from itertools import islice, product
+
+from certiloop.models.lang.nesting import has_loop_modality
+from certiloop.models.lang.terms import REAL, Node, const, div
+from certiloop.models.lang.theorem import Theorem
+
+MAX_OPTIONS = 4  # whole proof attempts per theorem: each plans its ODEs again
+# a proof with more obligations than this is not attempted again with other witnesses: a
+# hybrid automaton of six modes (Automatic cruise controller, 1,300) takes 30 s per attempt
+WITNESS_RETRY_OBLIGATIONS = 300
+
+
+def open_quantifiers(f: Node, scope: tuple[Node, ...] = ()) -> list[tuple[Node, tuple[Node, ...]]]:
+    """(variable, the ∀-variables around it) for each ∃ the core takes apart (one whose body
+    holds a loop), along the positive paths it follows (nesting.py)."""
+    if not has_loop_modality(f):
+        return []
+    if f.op == "exists":
+        return [(v, scope) for v in f.payload] + open_quantifiers(f.args[0], scope)
+    if f.op == "forall":
+        return open_quantifiers(f.args[0], scope + tuple(f.payload))
+    if f.op == "implies":
+        return open_quantifiers(f.args[1], scope)
+    if f.op in ("and", "or"):
+        return [q for a in f.args for q in open_quantifiers(a, scope)]
+    if f.op == "box":
+        return open_quantifiers(f.args[0], scope)
+    return []
+
+
+def _terms(v: Node, scope: tuple[Node, ...]) -> list[Node]:
+    same = [u for u in reversed(scope) if u.sort == v.sort and u.payload != v.payload]
+    out = same + [div(u, 2) for u in same] + [div(u, 10) for u in same]
+    return out + ([const(Fraction(1))] if v.sort == REAL else [])
+
+
+def witness_options(theorem: Theorem) -> list[tuple[tuple[str, Node], ...]]:
+    """Witness choices to try, at most MAX_OPTIONS, for the ∃s the theorem gives none for."""
+    given = {v for v, _ in theorem.witnesses}
+    needed: dict[str, list[Node]] = {}
+    for v, scope in open_quantifiers(theorem.guarantee):
+        if v.payload not in given and v.payload not in needed:
+            needed[v.payload] = _terms(v, scope)
+    if not needed or not all(needed.values()):
+        return []
+    names = list(needed)
+    combos = islice(product(*(needed[n] for n in names)), MAX_OPTIONS)
+    return [theorem.witnesses + tuple(zip(names, combo)) for combo in combos]
