@@ -200,7 +200,10 @@ class Compiler:
         if op in ("forall", "exists"):
             return self._quantifier(n)
         if op in ("box", "diamond"):
-            raise ModelError(f"cannot execute the modal formula `{n}`; state it as a program")
+            shown = " ".join(str(n).split())
+            shown = shown if len(shown) <= 60 else shown[:57] + "..."
+            raise ModelError(f"the falsifier cannot evaluate the modal formula `{shown}` (a modality "
+                             "inside the guarantee or an assumption); state it as the claim's program")
         raise ModelError(f"cannot execute `{n}`")
 
     def _quantifier(self, n: Node) -> Fn:

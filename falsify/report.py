@@ -15,6 +15,9 @@ def show_falsification(console: Console, result: Falsification, level: int = ui.
     """One model's search: a line when no run violates the guarantee (none with --quiet), else
     the violating run step by step (--verbose: every margin at the end, not the 3 smallest)."""
     name = escape(result.model)
+    if result.skipped:
+        console.print(f"[bold]{name}[/]: [yellow]not run[/]: {escape(result.skipped)}", highlight=False)
+        return
     if not result.found and result.note:
         console.print(f"[bold]{name}[/]: [yellow]no run[/]: {escape(result.note)} ({result.seconds:.2f} s)",
                       highlight=False)

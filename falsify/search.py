@@ -35,6 +35,8 @@ from certiloop.falsify.depth import FLOAT_ONLY, FLOAT_TOLERANCE, _deep, _depth, 
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
+from certiloop.models.lang.programs import Program, Test, children
+from certiloop.models.lang.terms import MODALITIES, Node
 from certiloop.models.lang.theorem import Theorem
 
 SHRINK_SECONDS = 15  # hypothesis shrinks for up to 5 minutes by default; a trace this
@@ -75,10 +77,11 @@ class Falsification:
     note: str = ""  # why the search could not run, e.g. no start state meets the assumptions
     phase: str = "hypothesis"  # which search found the run: "batch" or "hypothesis"
     initial: dict[str, Any] | None = None  # a batch run's initial state (its script starts after it)
+    skipped: str = ""  # why no search was made: the claim has a modality the runs cannot evaluate
 
     @property
     def verdict(self) -> str:
-        return "refuted" if self.found else "no counterexample"
+        return "refuted" if self.found else "not run" if self.skipped else "no counterexample"
 
     @property
     def validated(self) -> bool:
@@ -88,13 +91,22 @@ class Falsification:
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"model": self.model, "verdict": self.verdict, "examples": self.examples,
                                "seconds": round(self.seconds, 4), "counterexample": None,
-                               "note": self.note, "phase": self.phase}
+                               "note": self.note, "phase": self.phase,
+                               **({"skipped": self.skipped} if self.skipped else {})}
         if self.run is not None:
             out["counterexample"] = {"trace": [c.to_json() for c in self.run.checkpoints],
                                      "violated": self.run.violated, "check": self.check,
                                      "validated": self.validated,
                                      "steps": self.run.checkpoints[-1].step}
         return out
+
+
+def _modal(f: Node) -> bool:
+    return f.op in MODALITIES or any(_modal(a) for a in f.args)
+
+
+def _modal_tests(p: Program) -> bool:
+    return _modal(p.cond) if isinstance(p, Test) else any(_modal_tests(q) for q in children(p))
 
 
 class _Found(Exception):
@@ -111,6 +123,9 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     from hypothesis.errors import Unsatisfiable
 
     opts = options or Options()
+    if _modal(theorem.assumptions) or _modal(theorem.guarantee) or _modal_tests(theorem.program):
+        return Falsification(theorem.name, False, 0, 0.0, skipped="a modality inside the assumptions, the "
+                             "guarantee or a test: a run cannot evaluate it (the proof stands alone)")
     start = time.perf_counter()
     batched = 0
     if opts.batch_runs > 0:  # many seeded runs at once; a hit is reported only once replayed

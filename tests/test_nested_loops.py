@@ -9,6 +9,8 @@ never proved; each twin would be proved by the mutant of the rule it targets."""
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -151,3 +153,18 @@ def test_a_division_inside_never_reports_ill_defined():
     result = prove("x >= 0 -> x = 0 | [{x:=x+1;}*]1/x > 0")
     assert not result.ill_defined
     assert result.verdict in ("proved", "unknown")
+
+
+def test_the_gate_passes_a_proved_stability_entry_and_skips_its_falsifier(tmp_path, capsys):
+    from certiloop.proofs.cli import main
+
+    archive = tmp_path / "stable.kyx"
+    archive.write_text(f'ArchiveEntry "stable" ProgramVariables Real x, t; End. Problem {stability(ONE_D)} '
+                       'End. End.\n')
+    report = tmp_path / "gate.json"
+    assert main(["gate", str(archive), "--no-cache", "--jobs", "1", "--json", str(report)]) == 0
+    (entry,) = json.loads(report.read_text())
+    assert entry["verdict"] == "proved" and entry["passed"]
+    assert entry["falsify"]["verdict"] == "not run" and "modality" in entry["falsify"]["skipped"]
+    assert main(["falsify", str(archive)]) == 0
+    assert "not run" in capsys.readouterr().out

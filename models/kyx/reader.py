@@ -334,8 +334,9 @@ def _described(item: Tree) -> str:
 
 
 def _guarantee_only(assumptions: Node, program: Program, guarantee: Node, constants) -> tuple[Node, ...]:
-    """Symbols only the guarantee mentions: declared, never written, so constants."""
-    known = set(free_vars(assumptions)) | set(program.symbols()) | {c.payload for c in constants}
+    """Symbols only the guarantee mentions and none of its programs writes: constants."""
+    known = (set(free_vars(assumptions)) | set(program.symbols()) | {c.payload for c in constants}
+             | _changing(guarantee))
     return tuple(v for n, v in free_vars(guarantee).items() if n not in known and v.sort != BOOL)
 
 

@@ -65,7 +65,7 @@ class GateEntry:
                        f"{self.falsify.get('violated')}")
         if self.falsify.get("note"):  # e.g. unsatisfiable assumptions: a proof of nothing
             out.append(f"the falsifier could not start a single run: {self.falsify['note']}")
-        elif self.expected == "refuted" and self.falsify and not found:
+        elif self.expected == "refuted" and self.falsify and not found and not self.falsify.get("skipped"):
             out.append(f"the falsifier found no violating run in {self.falsify.get('examples')} examples")
         if self.nonblocking is not None and self.nonblocking["verdict"] != "proved":
             out.append("the vacuity check is not proved: the control step may block")
@@ -146,7 +146,7 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
     found = falsifier.result()
     summary = {"verdict": found.verdict, "examples": found.examples, "seconds": round(found.seconds, 3),
                "violated": found.run.violated if found.run else None, "check": found.check,
-               "note": found.note}
+               "note": found.note, **({"skipped": found.skipped} if found.skipped else {})}
     kernel = _kernel_check(theorem)
     opinion = None
     if opts.cross_check:
