@@ -108,6 +108,9 @@ def test_a_disjunction_assumes_the_other_parts_false():
     # x = -1: not > 5, and the loop's zero iterations leave x = -1 < 0. Assuming x > 5 (the
     # disjunct itself, not its negation) would prove it
     assert prove("x >= -1 -> x > 5 | [{x:=x+1;}*]x >= 0").verdict != "proved"
+    # the same inside a quantifier, where the core (not the reader) takes the disjunction apart
+    assert prove("\\forall x (x >= 0 -> x > 5 | [{x:=x+1;}*]x >= 0)").verdict == "proved"
+    assert prove("\\forall x (x >= -1 -> x > 5 | [{x:=x+1;}*]x >= 0)").verdict != "proved"
 
 
 def test_forall_rebinds_a_program_variable():
@@ -140,7 +143,7 @@ def test_witness_options_start_with_the_enclosing_variable():
     ("\\forall y ([{x:=x+1;}*]x > y -> x > y)", "left of `->`"),
     ("!([{x:=x+1;}*]x > 0)", "negation"),
     ("[{x:=x+1;}*]x > 0 | [{x:=x-1;}*]x < 0", "two parts of a disjunction"),
-    ("x > 0 -> [?[{x:=x+1;}*]x > 0;]x > 0", "test"),
+    ("x > 0 -> [?[{x:=x+1;}*]x > 0;]x > 0", "formula of a program"),
 ])
 def test_unsupported_shapes_are_refused_with_the_reason(problem, why):
     with pytest.raises(KyxError, match="1:") as caught:
@@ -168,3 +171,36 @@ def test_the_gate_passes_a_proved_stability_entry_and_skips_its_falsifier(tmp_pa
     assert entry["falsify"]["verdict"] == "not run" and "modality" in entry["falsify"]["skipped"]
     assert main(["falsify", str(archive)]) == 0
     assert "not run" in capsys.readouterr().out
+
+
+# a red team's findings (each was a wrong verdict or an unclear refusal)
+
+def test_a_definition_argument_captured_by_its_body_is_refused():
+    # pasted as is, stays(x) would read [{x'=x}*] x^2 <= x^2: proved, though x = 0.5 grows to
+    # 0.5e at time 1. KeYmaera X calls this a substitution clash
+    text = ('ArchiveEntry "c" Definitions Bool stays(Real v) <-> [{{x\' = x}}*] x^2 <= v^2; End. '
+            'ProgramVariables Real x; End. Problem \\forall x (x^2 < 1 -> stays(x)) End. End.')
+    (e,) = read_entries(text)
+    assert e.theorem is None and "substitution clash" in e.error and "`x`" in e.error
+    fine = text.replace("stays(x))", "x = 0 -> stays(1))")
+    (ok,) = read_entries(fine)
+    assert ok.error is None
+
+
+def test_a_disjunction_is_not_reordered_past_a_division():
+    # read left to right, 1/x is evaluated only where the box is false, which it never is
+    with pytest.raises(KyxError, match="division among them"):
+        entry("x = 0 -> ([{x := x + 1;}*] x >= 0 | 1/x > 0)")
+    # loop-free, the box stays in the guarantee and is read in order: proved
+    assert prove("x = 0 -> ([x := x + 1;] x >= 1 | 1/x > 0)").verdict == "proved"
+
+
+def test_a_root_taken_under_a_guard_is_not_reported_ill_defined():
+    result = prove("\\forall x (a >= 0 -> [{x := x/2;}*] x^2 <= x^2 + sqrt(a))", "Real x, a;")
+    assert result.verdict != "proved" and not result.ill_defined  # a = -1 fails the (stricter) condition
+    assert "where the claim may not take it" in result.reason
+
+
+def test_a_modality_inside_an_ode_domain_is_refused_with_the_position():
+    with pytest.raises(KyxError, match=r"1:\d+: .*modality inside an ODE's domain"):
+        entry("x = 0 -> \\forall y ([{{x' = 1 & [{y := y + 1;}*] y >= 0}}*] x >= 0)", "Real x, y;")

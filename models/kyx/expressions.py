@@ -12,9 +12,13 @@ from lark import Token, Tree
 from certiloop.models.kyx.roots import NotPolynomialInRoot, exact_root, never_negative, without_root
 from certiloop.models.kyx.syntax import BUILTINS, KyxError, Scope, _where
 from certiloop.models.lang.programs import (
+    ODE,
     Choice,
+    Loop,
     Program,
+    Test,
     assign,
+    children,
     choice,
     havoc,
     if_,
@@ -22,6 +26,7 @@ from certiloop.models.lang.programs import (
     ode,
     seq,
     test,
+    written,
 )
 from certiloop.models.lang.terms import (
     BOOL,
@@ -208,9 +213,18 @@ class Builder:
             raise self.fail(t, f"definition of `{name}` refers to itself")
         self.expanding.append(name)
         try:
-            return self.expr(d.body, dict(zip(d.params, args)))
+            out = self.expr(d.body, dict(zip(d.params, args)))
         finally:
             self.expanding.pop()
+        bound = _binds(out)
+        for arg in args:
+            # the argument pasted under a binder of its own symbol would mean something else
+            # (KeYmaera X refuses it too: a substitution clash)
+            if clash := sorted(set(free_vars(arg)) & bound):
+                raise self.fail(t, f"substitution clash: the argument `{self.shown(arg)}` of `{name}` "
+                                   f"mentions `{clash[0]}`, which the definition binds (a quantifier or "
+                                   "a program writing it): use another name")
+        return out
 
     def e_neg(self, t, env):
         return neg(self._num(t.children[0], env))
@@ -526,3 +540,27 @@ def _cases(kind: str, args: tuple[Node, ...]) -> list[tuple[Node, Node]]:
     return [(a >= b, a), (a < b, b)]
 
 
+
+
+def _binds(f: Node) -> set[str]:
+    """Symbols bound somewhere inside f: its quantifiers' variables, what the programs in its
+    modalities write, and what the formulas inside those programs bind."""
+    out: set[str] = set()
+    if f.op in ("forall", "exists"):
+        out |= {v.payload for v in f.payload}
+    if f.op in ("box", "diamond"):
+        out |= set(written(f.payload)) | _program_binds(f.payload)
+    for a in f.args:
+        out |= _binds(a)
+    return out
+
+
+def _program_binds(p: Program) -> set[str]:
+    formulas = {Test: lambda q: [q.cond], ODE: lambda q: [q.domain, *q.invariants],
+                Loop: lambda q: [q.invariant] if q.invariant is not None else []}
+    out: set[str] = set()
+    for f in formulas.get(type(p), lambda q: [])(p):
+        out |= _binds(f)
+    for q in children(p):
+        out |= _program_binds(q)
+    return out

@@ -36,7 +36,7 @@ from certiloop.models.kyx.syntax import (
     _where,
     parse_tree,
 )
-from certiloop.models.lang.nesting import loop_nesting_problem, tests_have_loops
+from certiloop.models.lang.nesting import divides, loop_nesting_problem, modal_domains, tests_have_loops
 from certiloop.models.lang.programs import (
     ODE,
     Assign,
@@ -144,9 +144,20 @@ def split_problem(f: Node, exact: bool = False) -> tuple[Node, Program, Node]:
     return And(*assumptions), seq(*parts) if parts else skip(), f
 
 
+def _modal_domain_inside(f: Node) -> bool:
+    if f.op in MODALITIES and modal_domains(f.payload):
+        return True
+    return any(_modal_domain_inside(a) for a in f.args)
+
+
 def _one_box_among_first_order(disjuncts: tuple[Node, ...]) -> bool:
-    boxes = [d for d in disjuncts if d.op == "box"]
-    return len(boxes) == 1 and not any(_modal(d) for d in disjuncts if d.op != "box")
+    """One box among first-order disjuncts, which `!Q -> [a]P` may evaluate before it: only if
+    the box is the last one or nothing from it on divides (read left to right, a later
+    disjunct is evaluated only where the box is false)."""
+    boxes = [n for n, d in enumerate(disjuncts) if d.op == "box"]
+    if len(boxes) != 1 or any(_modal(d) for d in disjuncts if d.op != "box"):
+        return False
+    return boxes[0] == len(disjuncts) - 1 or not any(divides(d) for d in disjuncts[boxes[0]:])
 
 
 def _modal(f: Node) -> bool:
@@ -222,12 +233,15 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
         f = _rename(f, meta["names"])
     assumptions, program, guarantee = split_problem(f, exact=meta.get("shape") == "A->[a]P")
     roots = {n: (_rename(e, meta.get("names", {})), where) for n, (e, where) in builder.named_roots.items()}
-    assumptions, root_conditions = _pin_roots(roots, assumptions, program, guarantee, source)
+    assumptions, root_conditions, guarded_roots = _pin_roots(roots, assumptions, program, guarantee, source)
     if _nested_loop(assumptions):
         raise KyxError(f"{_where(source, problem)}: a loop inside an assumption's modality is not supported")
     if tests_have_loops(program):
-        raise KyxError(f"{_where(source, problem)}: the Problem holds a loop inside a test `?..` of a "
-                       "program, which is not supported")
+        raise KyxError(f"{_where(source, problem)}: the Problem holds a loop inside a formula of a program "
+                       "(a test, an ODE domain, an annotation), which is not supported")
+    if modal_domains(program) or _modal_domain_inside(guarantee):
+        raise KyxError(f"{_where(source, problem)}: the Problem holds a modality inside an ODE's domain or "
+                       "annotation, which is not supported")
     if why := loop_nesting_problem(guarantee):
         raise KyxError(f"{_where(source, problem)}: the Problem holds {why}, which is not supported")
     names = meta.get("names", {})
@@ -252,6 +266,7 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
                        for k, v in meta.get("abbreviations", {}).items()},
         scenarios=tuple(_rename(_meta_formula(s, scope, source), names) for s in meta.get("scenarios", [])),
         well_defined=root_conditions,
+        defined_if=guarded_roots,
     )
     return theorem
 
@@ -264,9 +279,13 @@ def _pin_roots(roots: dict[str, tuple[Node, object]], assumptions: Node, program
     before the first assumption that uses its root: read left to right, the ones before it
     are evaluated first, and the claim is well-defined only where they give e >= 0 (`those
     -> e >= 0` valid). Then in every state they allow, s is sqrt(e), and where one of them
-    fails, both claims hold for want of an assumption."""
+    fails, both claims hold for want of an assumption.
+
+    Returns the assumptions and the side conditions, exact ones first (the root is taken
+    wherever its assumption is evaluated, so a failure is a real negative root) and then those
+    stricter than needed (the root taken under a guard, or by the program or guarantee)."""
     if not roots:
-        return assumptions, ()
+        return assumptions, (), ()
     changing = _changing(assumptions) | _changing(guarantee) | set(written(program)) | _bound_in(program)
     for e, where in roots.values():
         if bad := sorted(set(free_vars(e)) & changing):
@@ -275,21 +294,37 @@ def _pin_roots(roots: dict[str, tuple[Node, object]], assumptions: Node, program
                            "is not supported")
     parts = list(assumptions.args) if assumptions.op == "and" else [assumptions]
     out: list[Node] = []
-    conditions: list[tuple[str, Node]] = []
+    exact: list[tuple[str, Node]] = []
+    stricter: list[tuple[str, Node]] = []
     waiting = dict(roots)
 
-    def pin(names: list[str]) -> None:
+    def pin(names: list[str], part: Node | None) -> None:
         for n in names:
             e, _ = waiting.pop(n)
-            conditions.append((f"the square root of `{e}` (named {n}) is of a number >= 0",
-                               Implies(And(*out), e >= 0)))
+            taken = part is not None and _always_taken(part, n)
+            what = f"the square root of `{e}` (named {n}) is of a number >= 0"
+            (exact if taken else stricter).append((what, Implies(And(*out), e >= 0)))
             out.append(And(Real(n) >= 0, Real(n) * Real(n) == e))
 
     for part in parts:
-        pin([n for n in waiting if n in free_vars(part)])
+        pin([n for n in waiting if n in free_vars(part)], part)
         out.append(part)
-    pin(list(waiting))  # roots only the program or the guarantee takes
-    return And(*out), tuple(conditions)
+    pin(list(waiting), None)  # roots only the program or the guarantee takes
+    return And(*out), tuple(exact), tuple(stricter)
+
+
+def _always_taken(f: Node, name: str) -> bool:
+    """Is the symbol evaluated whenever f is, read left to right? (Not under a later operand
+    of &, |, ->, nor inside a modality, whose postcondition waits for the program's runs.)"""
+    if name not in free_vars(f) or f.op in MODALITIES:
+        return False
+    if f.op in ("and", "or", "implies"):
+        return _always_taken(f.args[0], name)
+    if f.op in ("not", "iff"):
+        return any(_always_taken(a, name) for a in f.args)
+    if f.op in ("forall", "exists"):
+        return _always_taken(f.args[0], name)
+    return True  # a comparison: every part of its terms is evaluated
 
 
 def _changing(f: Node) -> set[str]:

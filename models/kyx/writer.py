@@ -188,8 +188,8 @@ def to_kyx(t: Theorem) -> str:
     """One ArchiveEntry for the theorem; raises NotExpressible if .kyx cannot say it."""
     names = _kyx_names(t)
     pr = _Printer(t, names)
-    if t.well_defined:  # written as assumptions, the pins would prove what is ill-defined
-        raise pr.fail(f"its side condition ({t.well_defined[0][0]}) has no .kyx form")
+    if t.well_defined or t.defined_if:  # written as assumptions, the pins would prove what is ill-defined
+        raise pr.fail(f"its side condition ({(t.well_defined + t.defined_if)[0][0]}) has no .kyx form")
     body = pr.program(t.program, 2)
     problem = f"  ({pr.formula(t.assumptions)})\n  ->\n  [\n    {body}\n  ]({pr.formula(t.guarantee)})"
     constants = [c.payload for c in t.constants]

@@ -61,6 +61,9 @@ class Theorem:
     well_defined: (what, formula) pairs a translation states for the claim to mean what it
         says, e.g. `("the square root of g/p", Implies(p > 0, g / p >= 0))` when the kyx
         reader names sqrt(g/p) by a symbol; each must be valid, or the claim is ill-defined.
+    defined_if: side conditions like well_defined but stricter than the claim needs (a root
+        the claim takes only under a guard, or only after the program): each must be valid
+        for a proof, and one that fails does not show the claim ill-defined.
     witnesses: (variable, term) pairs, proof hints for an `\\exists v` of the guarantee whose
         body holds a loop: the core proves the body with v := term, evaluated where the
         quantifier stands, e.g. `("del", eps)` for stability's `\\exists del`. Any term is sound
@@ -84,6 +87,7 @@ class Theorem:
     # Side conditions of a translation (kyx square roots): each proved valid first, like the
     # claim's own divisions (kind `defined`); one that fails makes the claim ill-defined.
     well_defined: tuple[tuple[str, Node], ...] = ()
+    defined_if: tuple[tuple[str, Node], ...] = ()  # stricter than needed: a failure shows nothing
     # Proof hints: a term for each \exists v around a loop in the guarantee (see nesting.py)
     witnesses: tuple[tuple[str, Node], ...] = ()
 
@@ -94,6 +98,7 @@ class Theorem:
         object.__setattr__(self, "guarantee", formula(self.guarantee))
         object.__setattr__(self, "scenarios", tuple(formula(s) for s in self.scenarios))
         object.__setattr__(self, "well_defined", tuple((str(w), formula(f)) for w, f in self.well_defined))
+        object.__setattr__(self, "defined_if", tuple((str(w), formula(f)) for w, f in self.defined_if))
         object.__setattr__(self, "witnesses", tuple((str(v), term(t)) for v, t in self.witnesses))
         check_well_formed(self)
 
@@ -114,6 +119,8 @@ class Theorem:
         flags. Two theorems with the same canonical text are the same claim."""
         conditions = (("well_defined", tuple((w, f.key) for w, f in self.well_defined)),) \
             if self.well_defined else ()  # (absent, a theorem's text and hash stay what they were)
+        if self.defined_if:
+            conditions += (("defined_if", tuple((w, f.key) for w, f in self.defined_if)),)
         conditions += (("witnesses", tuple((v, t.key) for v, t in self.witnesses)),) if self.witnesses else ()
         return repr((
             "certiloop-theorem/1", self.name, self.expected, self.assumptions.key, self.program.key,
@@ -193,7 +200,7 @@ def _visit(t: "Theorem", on_node: Callable[[Node, str], None],
         nodes(s, "a scenario")
     for c in t.constants:
         nodes(c, "the constants")
-    for what, condition in t.well_defined:
+    for what, condition in t.well_defined + t.defined_if:
         nodes(condition, f"well-definedness condition ({what})")
 
 

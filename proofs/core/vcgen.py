@@ -160,6 +160,8 @@ class VCGen:
         self.require_defined(State((), {}, ()), "the assumptions", assumptions)
         for what, condition in t.well_defined:  # a translation's side conditions (kyx square roots)
             self.emit(State((), {}, ()), condition, f"well-defined: {what}", "defined")
+        for what, condition in t.defined_if:  # stricter than needed: failing shows nothing
+            self.emit(State((), {}, (), ("guarded",)), condition, f"well-defined: {what}", "defined")
         start = State((assumptions,), {}, ())
         self.exec(t.program, start, self.postcondition)
         return self.obligations
@@ -388,7 +390,7 @@ PREMISE_NAMES = {"nonzero": "never zero in the domain"}
 # which incomplete rule to blame when several lie on a path: an ODE that lost information
 # explains a failure downstream better than the loop around it
 BLAME_ORDER = ("dW", "dI", "dI-init", "dC", "guarantee-as-invariant", "loop-invariant", "loop-init",
-               "witness")
+               "witness", "guarded")
 
 
 def _blamed(rules: tuple[str, ...]) -> str:

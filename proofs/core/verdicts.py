@@ -133,15 +133,19 @@ def decide_theorem(obligations: list[ObligationResult], run: RunEvidence | None,
     if undefined:
         first = undefined[0]
         shown = ", ".join(f"{k} = {v}" for k, v in (first.counterexample or {}).items())
-        # a state past an incomplete rule (a loop invariant, dW) may be one no run reaches
+        # a state past an incomplete rule (a loop invariant, dW) may be one no run reaches, and
+        # a side condition stricter than the claim needs ("guarded") may fail where it is not taken
         ill = first.verdict == "refuted" and not first.rule
         at = f" ({shown})" if shown else ""
+        head = "ill-defined" if ill else "not shown well-defined"
         if "division" not in first.path:  # a translation's side condition (Theorem.well_defined)
-            how = f"it fails{at}" if ill else f"it is not shown ({first.reason})"
-            return Decision("unknown", f"ill-defined: {first.path}: {how}", ill_defined=ill)
+            refuted = first.verdict == "refuted"
+            how = (f"it fails{at}" if ill else f"it fails{at}, where the claim may not take it"
+                   if refuted else f"it is not shown ({first.reason})")
+            return Decision("unknown", f"{head}: {first.path}: {how}", ill_defined=ill)
         how = (f"it can be by zero{at}" if ill else f"it is not shown nonzero past {first.rule}"
                if first.verdict == "refuted" else f"it is not shown nonzero ({first.reason})")
-        return Decision("unknown", f"ill-defined: {first.path}: a division in the claim itself, and {how}",
+        return Decision("unknown", f"{head}: {first.path}: a division in the claim itself, and {how}",
                         ill_defined=ill)
     if confirmed and run.negation_proved:
         return Decision("refuted", "the claim is false at the state shown: its negation is proved there")
