@@ -182,7 +182,7 @@ def test_a_definition_argument_captured_by_its_body_is_refused():
             'ProgramVariables Real x; End. Problem \\forall x (x^2 < 1 -> stays(x)) End. End.')
     (e,) = read_entries(text)
     assert e.theorem is None and "substitution clash" in e.error and "`x`" in e.error
-    fine = text.replace("stays(x))", "x = 0 -> stays(1))")
+    fine = text.replace("\\forall x (x^2 < 1 -> stays(x))", "x^2 < 1 -> stays(1)")
     (ok,) = read_entries(fine)
     assert ok.error is None
 
@@ -204,3 +204,27 @@ def test_a_root_taken_under_a_guard_is_not_reported_ill_defined():
 def test_a_modality_inside_an_ode_domain_is_refused_with_the_position():
     with pytest.raises(KyxError, match=r"1:\d+: .*modality inside an ODE's domain"):
         entry("x = 0 -> \\forall y ([{{x' = 1 & [{y := y + 1;}*] y >= 0}}*] x >= 0)", "Real x, y;")
+
+
+def test_a_clash_hidden_in_abs_or_a_root_or_in_the_body_itself_is_refused():
+    # a second red team: abs(x) and sqrt(x^2+1) are markers whose x was captured unseen
+    for arg in ("abs(x)", "max(x,0)", "sqrt(x^2+1)"):
+        text = (f'ArchiveEntry "c" Definitions Bool p(Real v) <-> [x := 0;] v <= 1; End. '
+                f'ProgramVariables Real x; End. Problem x = 3 -> p({arg}) End. End.')
+        (e,) = read_entries(text)
+        assert e.theorem is None and "substitution clash" in e.error, arg
+    # a definition's own x under a binder of x around its use (h() would read 0 + 1, not 5 + 1)
+    text = ('ArchiveEntry "c" Definitions Real h() = x + 1; End. ProgramVariables Real x; End. '
+            'Problem x = 5 -> [x := 0;] h() = 1 End. End.')
+    (e,) = read_entries(text)
+    assert e.theorem is None and "bound where it is used" in e.error
+    (ok,) = read_entries(text.replace("[x := 0;] h() = 1", "h() = 6"))
+    assert ok.error is None
+
+
+def test_a_root_before_its_guard_in_a_disjunction_is_not_proved():
+    # read left to right the box takes sqrt(x) first: at x = -1 that is sqrt(-1)
+    result = prove("[y := sqrt(x);] y >= 0 | x < 0", "Real x, y;")
+    assert result.verdict != "proved" and not result.ill_defined
+    with pytest.raises(KyxError, match="divides and is taken under a condition"):
+        entry("[y := sqrt(1/x);] y >= 0 | x <= 0", "Real x, y;")

@@ -66,6 +66,7 @@ class Builder:
         # symbol -> (e, where): a root of a term that may be negative, named for the reader
         # to pin down (s >= 0 & s^2 = e) where the claim shows e >= 0 (reader.py)
         self.named_roots: dict[str, tuple[Node, Any]] = {}
+        self.binders: list[frozenset[str]] = []  # symbols bound around what is being built
         self.made: set[str] = set()  # names made up here (fresh_variable)
         self.expanding: list[str] = []
         self.olds: dict[str, Node] | None = None  # in ODE annotations: old(e) -> its variable
@@ -216,14 +217,36 @@ class Builder:
             out = self.expr(d.body, dict(zip(d.params, args)))
         finally:
             self.expanding.pop()
+        # KeYmaera X refuses both ways of meaning something else (a substitution clash): an
+        # argument pasted under the body's binder of its symbol, and a symbol of the body's own
+        # pasted under a binder of it around the use
         bound = _binds(out)
+        passed: set[str] = set()
         for arg in args:
-            # the argument pasted under a binder of its own symbol would mean something else
-            # (KeYmaera X refuses it too: a substitution clash)
-            if clash := sorted(set(free_vars(arg)) & bound):
+            passed |= (symbols := self.symbols(arg))
+            if clash := sorted(symbols & bound):
                 raise self.fail(t, f"substitution clash: the argument `{self.shown(arg)}` of `{name}` "
                                    f"mentions `{clash[0]}`, which the definition binds (a quantifier or "
                                    "a program writing it): use another name")
+        around = set().union(*self.binders) if self.binders else set()
+        if clash := sorted((self.symbols(out) - passed - set(d.params)) & around):
+            raise self.fail(t, f"substitution clash: the definition of `{name}` mentions `{clash[0]}`, which "
+                               "is bound where it is used (by a quantifier or a program writing it): "
+                               "pass it as an argument")
+        return out
+
+    def symbols(self, n: Node) -> set[str]:
+        """The free symbols of n, with each abs/min/max or root marker read as the symbols of
+        what it stands for."""
+        out: set[str] = set()
+        for name in free_vars(n):
+            if name in self.cases:
+                for a in self.cases[name][1]:
+                    out |= self.symbols(a)
+            elif name in self.named_roots:
+                out |= {name} | self.symbols(self.named_roots[name][0])
+            else:
+                out.add(name)
         return out
 
     def e_neg(self, t, env):
@@ -379,14 +402,26 @@ class Builder:
                 raise self.fail(n, f"cannot quantify over `{n}`: it is declared in Definitions")
         inner = {k: v for k, v in env.items() if k not in {str(n) for n in names}}
         variables = [Real(str(n)) for n in names]
-        f = self._bool(body, inner)
+        self.binders.append(frozenset(str(n) for n in names))
+        try:
+            f = self._bool(body, inner)
+        finally:
+            self.binders.pop()
         return ForAll(variables, f) if str(q) == "\\forall" else Exists(variables, f)
 
     def e_box(self, t, env):
-        return Box(self.program(t.children[0], env), self._bool(t.children[1], env))
+        return Box(*self._modality(t, env))
 
     def e_diamond(self, t, env):
-        return Diamond(self.program(t.children[0], env), self._bool(t.children[1], env))
+        return Diamond(*self._modality(t, env))
+
+    def _modality(self, t, env) -> tuple[Program, Node]:
+        program = self.program(t.children[0], env)
+        self.binders.append(frozenset(written(program)))
+        try:
+            return program, self._bool(t.children[1], env)
+        finally:
+            self.binders.pop()
 
     # ---- programs
     def program(self, t: Tree, env: dict[str, Node]) -> Program:

@@ -110,10 +110,11 @@ def _nested_loop(f: Node) -> bool:
     return any(_nested_loop(a) for a in f.args)
 
 
-def split_problem(f: Node, exact: bool = False) -> tuple[Node, Program, Node]:
+def split_problem(f: Node, exact: bool = False,
+                  risky: frozenset[str] = frozenset()) -> tuple[Node, Program, Node]:
     """`A -> [a](Q -> [b]P)` as (A, a; ?Q; b, P), and `Q | [a]P` as `!Q -> [a]P`: each step an
     equivalence. exact: just `A -> [a]P` (how certiloop writes a theorem, so it reads back as
-    the same one)."""
+    the same one). risky: symbols (square roots) that count as divisions for the order of `|`."""
     if exact:
         assumptions, rest = (f.args[0], f.args[1]) if f.op == "implies" else (TRUE, f)
         if rest.op == "box":
@@ -131,7 +132,7 @@ def split_problem(f: Node, exact: bool = False) -> tuple[Node, Program, Node]:
         elif f.op == "box":
             parts.append(f.payload)
             f = f.args[0]
-        elif f.op == "or" and _one_box_among_first_order(f.args):
+        elif f.op == "or" and _one_box_among_first_order(f.args, risky):
             # Q | [a]P is !Q -> [a]P: a loop in [a] then becomes the theorem's own program
             guard = Not(Or(*(d for d in f.args if d.op != "box")))
             if parts:
@@ -150,14 +151,14 @@ def _modal_domain_inside(f: Node) -> bool:
     return any(_modal_domain_inside(a) for a in f.args)
 
 
-def _one_box_among_first_order(disjuncts: tuple[Node, ...]) -> bool:
+def _one_box_among_first_order(disjuncts: tuple[Node, ...], risky: frozenset[str] = frozenset()) -> bool:
     """One box among first-order disjuncts, which `!Q -> [a]P` may evaluate before it: only if
     the box is the last one or nothing from it on divides (read left to right, a later
     disjunct is evaluated only where the box is false)."""
     boxes = [n for n, d in enumerate(disjuncts) if d.op == "box"]
     if len(boxes) != 1 or any(_modal(d) for d in disjuncts if d.op != "box"):
         return False
-    return boxes[0] == len(disjuncts) - 1 or not any(divides(d) for d in disjuncts[boxes[0]:])
+    return boxes[0] == len(disjuncts) - 1 or not any(divides(d, risky) for d in disjuncts[boxes[0]:])
 
 
 def _modal(f: Node) -> bool:
@@ -231,7 +232,8 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
     meta = _metadata(span, source, problem)
     if meta.get("names"):
         f = _rename(f, meta["names"])
-    assumptions, program, guarantee = split_problem(f, exact=meta.get("shape") == "A->[a]P")
+    risky = frozenset(builder.named_roots)  # defined only where their argument is >= 0
+    assumptions, program, guarantee = split_problem(f, exact=meta.get("shape") == "A->[a]P", risky=risky)
     roots = {n: (_rename(e, meta.get("names", {})), where) for n, (e, where) in builder.named_roots.items()}
     assumptions, root_conditions, guarded_roots = _pin_roots(roots, assumptions, program, guarantee, source)
     if _nested_loop(assumptions):
@@ -239,10 +241,10 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
     if tests_have_loops(program):
         raise KyxError(f"{_where(source, problem)}: the Problem holds a loop inside a formula of a program "
                        "(a test, an ODE domain, an annotation), which is not supported")
-    if modal_domains(program) or _modal_domain_inside(guarantee):
+    if modal_domains(program) or _modal_domain_inside(guarantee) or _modal_domain_inside(assumptions):
         raise KyxError(f"{_where(source, problem)}: the Problem holds a modality inside an ODE's domain or "
                        "annotation, which is not supported")
-    if why := loop_nesting_problem(guarantee):
+    if why := loop_nesting_problem(guarantee, risky):
         raise KyxError(f"{_where(source, problem)}: the Problem holds {why}, which is not supported")
     names = meta.get("names", {})
     constants = [Real(names.get(n, n)) for n, d in scope.defs.items()
@@ -300,8 +302,11 @@ def _pin_roots(roots: dict[str, tuple[Node, object]], assumptions: Node, program
 
     def pin(names: list[str], part: Node | None) -> None:
         for n in names:
-            e, _ = waiting.pop(n)
+            e, where = waiting.pop(n)
             taken = part is not None and _always_taken(part, n)
+            if not taken and divides(e):  # the pin would divide where the claim may not
+                raise KyxError(f"{_where(source, where)}: the square root of `{e}`, which divides and is "
+                               "taken under a condition, is not supported")
             what = f"the square root of `{e}` (named {n}) is of a number >= 0"
             (exact if taken else stricter).append((what, Implies(And(*out), e >= 0)))
             out.append(And(Real(n) >= 0, Real(n) * Real(n) == e))

@@ -48,17 +48,20 @@ def _formulas(p: Program) -> list[Node]:
     return []
 
 
-def divides(f: Node) -> bool:
+def divides(f: Node, risky: frozenset[str] = frozenset()) -> bool:
     """Does f (with the programs inside its modalities) divide by anything but a nonzero
-    number? Where it does, the order in which its parts are evaluated matters."""
+    number, or mention a risky symbol? Where it does, the order in which its parts are
+    evaluated matters."""
     if f.op == "/" and not (f.args[1].op == "const" and f.args[1].payload != 0):
         return True
-    if f.op in MODALITIES and _program_divides(f.payload):
+    if f.op == "var" and f.payload in risky:
         return True
-    return any(divides(a) for a in f.args)
+    if f.op in MODALITIES and _program_divides(f.payload, risky):
+        return True
+    return any(divides(a, risky) for a in f.args)
 
 
-def _program_divides(p: Program) -> bool:
+def _program_divides(p: Program, risky: frozenset[str] = frozenset()) -> bool:
     parts: list[Node] = []
     if isinstance(p, (Assign, Havoc)):
         parts = [p.target] + ([p.value] if isinstance(p, Assign) else [])
@@ -68,34 +71,36 @@ def _program_divides(p: Program) -> bool:
         parts = [p.domain, *p.invariants, *(rhs for _, rhs in p.eqs)]
     elif isinstance(p, Loop) and p.invariant is not None:
         parts = [p.invariant]
-    return any(divides(f) for f in parts) or any(_program_divides(q) for q in children(p))
+    return any(divides(f, risky) for f in parts) or any(_program_divides(q, risky) for q in children(p))
 
 
-def loop_nesting_problem(f: Node) -> str | None:
-    """Why the loops inside the guarantee f cannot be proved where they sit, or None."""
+def loop_nesting_problem(f: Node, risky: frozenset[str] = frozenset()) -> str | None:
+    """Why the loops inside the guarantee f cannot be proved where they sit, or None. risky:
+    symbols defined only where an argument allows (a translation's square roots), which count
+    as divisions."""
     if not has_loop_modality(f):
         return None
     op = f.op
     if op == "and":
-        return next((why for a in f.args if (why := loop_nesting_problem(a))), None)
+        return next((why for a in f.args if (why := loop_nesting_problem(a, risky))), None)
     if op == "implies":
         if has_loop_modality(f.args[0]):
             return "a loop on the left of `->` (an assumption about all runs of a loop)"
-        return loop_nesting_problem(f.args[1])
+        return loop_nesting_problem(f.args[1], risky)
     if op == "or":
         looping = [n for n, a in enumerate(f.args) if has_loop_modality(a)]
         if len(looping) > 1:
             return "loops in two parts of a disjunction"
-        if looping[0] < len(f.args) - 1 and any(divides(a) for a in f.args[looping[0]:]):
+        if looping[0] < len(f.args) - 1 and any(divides(a, risky) for a in f.args[looping[0]:]):
             # proved as `!(others) -> loop part`, which evaluates the later parts first
             return "a loop in a disjunct before a later one, with a division among them (read left to right)"
-        return loop_nesting_problem(f.args[looping[0]])
+        return loop_nesting_problem(f.args[looping[0]], risky)
     if op in ("forall", "exists"):
-        return loop_nesting_problem(f.args[0])
+        return loop_nesting_problem(f.args[0], risky)
     if op == "box":
         if tests_have_loops(f.payload):
             return "a loop inside a formula of a program (a test, an ODE domain, an annotation)"
-        return loop_nesting_problem(f.args[0])
+        return loop_nesting_problem(f.args[0], risky)
     if op == "diamond":
         return "a loop inside a diamond `<..>` (liveness needs a variant)"
     if op == "not":
