@@ -103,11 +103,12 @@ def test_a_pool_worker_checks_in_a_child_too():
         status, allocations = pool.map(_quantified_check_allocations, [0])[0]
     # about the allocations a check from this process counts (a check in this process counts
     # none): z3's count in a child varies with the memory layout of the process that started
-    # its fork server (its arguments, paths), CI saw 1,029 in 293,000, where a budget is at
-    # least 10,000,000
+    # its fork server (its arguments, paths, what ran before in it): CI saw 1,029 in 293,000,
+    # one full local run 16,562 in 310,212 (5.3%; not reproduced alone), where a budget is at
+    # least 10,000,000 and a finished check allocates at most 5,700,000
     here = _quantified_check_allocations(0)
     assert status == here[0] == "unsat"
-    assert allocations > 0 and abs(allocations - here[1]) <= here[1] // 100
+    assert allocations > 0 and abs(allocations - here[1]) <= here[1] // 10
 
 
 SCRIPT = """
