@@ -228,3 +228,13 @@ def test_a_root_before_its_guard_in_a_disjunction_is_not_proved():
     assert result.verdict != "proved" and not result.ill_defined
     with pytest.raises(KyxError, match="divides and is taken under a condition"):
         entry("[y := sqrt(1/x);] y >= 0 | x <= 0", "Real x, y;")
+
+
+def test_a_flow_without_a_polynomial_solution_inside_a_formula_is_executed():
+    # x(t) = x0 e^-t never grows: |x0| < eps stays below eps; under x' = x it leaves any ball
+    claim = ("\\forall eps (eps > 0 -> \\exists del (del > 0 & \\forall x (x^2 < del^2 -> "
+             "[{x'=-x}] x^2 < eps^2)))")
+    assert prove(claim, "Real x;").verdict == "proved"
+    assert all(abs(0.9 * np.exp(-t)) < 1.0 for t in np.linspace(0, 20, 201))
+    assert prove(claim.replace("x'=-x", "x'=x"), "Real x;").verdict != "proved"
+    assert abs(1e-3 * np.exp(8.0)) > 1.0  # from 0.001 the flow x' = x passes 1 by time 8

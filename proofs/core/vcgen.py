@@ -30,7 +30,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Callable
 
-from certiloop.models.lang.nesting import has_loop_modality, loop_nesting_problem
+from certiloop.models.lang.nesting import divides, has_loop_modality, loop_nesting_problem
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import (
     BOOL,
@@ -55,6 +55,7 @@ from certiloop.proofs.core.odes import (
     default_chain,
     holds_along,
     polynomial_solution,
+    solvable,
 )
 from certiloop.proofs.core.wd import defined, has_division
 from certiloop.proofs.core.wp import expand_modalities
@@ -168,7 +169,7 @@ class VCGen:
 
     def postcondition(self, st: State) -> None:
         guarantee = self.theorem.guarantee
-        if has_loop_modality(guarantee):
+        if executed(guarantee):
             if why := loop_nesting_problem(guarantee):
                 raise ModelError(f"the guarantee holds {why}: not supported")
             self.taking_apart = True
@@ -185,7 +186,7 @@ class VCGen:
         the module's docstring). Each part is checked defined where it is evaluated, as one
         more thing the proof needs (kind safety: these checks ignore the left-to-right
         reading, so a failing one says unknown, never ill-defined)."""
-        if not has_loop_modality(goal):
+        if not executed(goal):
             self.require_defined(st, "the guarantee", goal, annotation=True)
             self.emit(st, goal, "postcondition")
             return
@@ -196,9 +197,13 @@ class VCGen:
         elif op == "implies":
             self.establish(self._assumed(st, goal.args[0]), goal.args[1])
         elif op == "or":
-            others = [a for a in goal.args if not has_loop_modality(a)]
-            looping = next(a for a in goal.args if has_loop_modality(a))
-            self.establish(self._assumed(st, Not(Or(*others))), looping)
+            inside = [n for n, a in enumerate(goal.args) if executed(a)]
+            later = goal.args[inside[0]:] if inside[0] < len(goal.args) - 1 else ()
+            if len(inside) > 1 or any(divides(a) for a in later):
+                raise ModelError(f"cannot take apart the disjunction `{goal}` (two parts to execute, or a "
+                                 "division after the part to execute)")
+            others = [a for n, a in enumerate(goal.args) if n != inside[0]]
+            self.establish(self._assumed(st, Not(Or(*others))), goal.args[inside[0]])
         elif op == "forall":
             self.names.count += 1
             event = self.names.count
@@ -209,13 +214,14 @@ class VCGen:
             self._exists(st, goal)
         elif op == "box":
             post = goal.args[0]
-            self.nested_posts.append(TRUE if has_loop_modality(post) else post)
+            self.nested_posts.append(TRUE if executed(post) else post)
             try:
                 self.exec(goal.payload, st.at(f"[{_short(goal.payload)}]"), lambda s: self.establish(s, post))
             finally:
                 self.nested_posts.pop()
-        else:  # loop_nesting_problem refused these
-            raise ModelError(f"cannot take apart `{goal}`")
+        else:  # a diamond or a negation: expanded exactly if it can be (wp.py says why not)
+            self.require_defined(st, "the guarantee", goal, annotation=True)
+            self.emit(st, goal, "postcondition")
 
     def _assumed(self, st: State, fact: Node) -> State:
         self.require_defined(st, "the guarantee", fact, annotation=True)
@@ -308,7 +314,7 @@ class VCGen:
             inv = self.nested_posts[-1]
         elif inv is None:
             guarantee = self.theorem.guarantee
-            inv = TRUE if has_loop_modality(guarantee) else guarantee
+            inv = TRUE if executed(guarantee) else guarantee
         # with the guarantee as invariant, "holds initially" is exact: zero iterations are a run
         init = st.at(f"{p.label} init") if p.invariant is None else st.via(f"{p.label} init", "loop-init")
         assumed = "guarantee-as-invariant" if p.invariant is None else "loop-invariant"
@@ -395,6 +401,26 @@ BLAME_ORDER = ("dW", "dI", "dI-init", "dC", "guarantee-as-invariant", "loop-inva
 
 def _blamed(rules: tuple[str, ...]) -> str:
     return min(rules, key=BLAME_ORDER.index, default="")
+
+
+def executed(f: Node) -> bool:
+    """Does f hold a modality the core executes (the sequent rules, then its program by the
+    rules above) rather than expands exactly (wp.py): one holding a loop, or a box holding an
+    ODE without a polynomial solution?"""
+    return has_loop_modality(f) or _unsolved_box(f)
+
+
+def _unsolved_box(f: Node) -> bool:
+    if f.op == "box" and any(not solvable(ode) for ode in _odes(f.payload)):
+        return True
+    return any(_unsolved_box(a) for a in f.args)
+
+
+def _odes(p: Program) -> list[ODE]:
+    if isinstance(p, ODE):
+        return [p]
+    return [ode for q in (p.parts if isinstance(p, Seq) else p.alternatives if isinstance(p, Choice)
+                          else (p.body,) if isinstance(p, Loop) else ()) for ode in _odes(q)]
 
 
 def _short(p: Program, width: int = 32) -> str:

@@ -25,7 +25,6 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Callable
 
-from certiloop.models.lang.nesting import has_loop_modality
 from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq
 from certiloop.models.lang.terms import TRUE, And, Implies, ModelError, Node, Not, cmp, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -39,7 +38,7 @@ from certiloop.proofs.core.odes import (
     rational_cofactor,
     solvable,
 )
-from certiloop.proofs.core.vcgen import Obligation, generate
+from certiloop.proofs.core.vcgen import Obligation, executed, generate
 from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.core.wd import has_division
 from certiloop.proofs.engine.darboux import darboux_atoms
@@ -79,7 +78,7 @@ def theorem_odes(theorem: Theorem) -> list[ODE]:
     found = {ode.key: ode for ode in odes_of(theorem.program)}
 
     def walk(f: Node) -> None:
-        if f.op == "box" and has_loop_modality(f):
+        if f.op == "box" and executed(f):
             for ode in odes_of(f.payload):
                 found.setdefault(ode.key, ode)
         for a in f.args:
@@ -93,7 +92,7 @@ def goals(f: Node) -> tuple[Node, Node]:
     """(what must hold, what is assumed) inside a guarantee that holds loops: the
     postconditions of its boxes and the left sides of its implications, as conjunctions; for
     any other guarantee, (itself, true)."""
-    if not has_loop_modality(f):
+    if not executed(f):
         return f, TRUE
     if f.op == "box":
         return goals(f.args[0])

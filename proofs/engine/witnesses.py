@@ -13,9 +13,9 @@ from __future__ import annotations
 from fractions import Fraction
 from itertools import islice, product
 
-from certiloop.models.lang.nesting import has_loop_modality
 from certiloop.models.lang.terms import REAL, Node, const, div
 from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.core.vcgen import executed
 
 MAX_OPTIONS = 4  # whole proof attempts per theorem: each plans its ODEs again
 # a proof with more obligations than this is not attempted again with other witnesses: a
@@ -26,7 +26,7 @@ WITNESS_RETRY_OBLIGATIONS = 300
 def open_quantifiers(f: Node, scope: tuple[Node, ...] = ()) -> list[tuple[Node, tuple[Node, ...]]]:
     """(variable, the ∀-variables around it) for each ∃ the core takes apart (one whose body
     holds a loop), along the positive paths it follows (nesting.py)."""
-    if not has_loop_modality(f):
+    if not executed(f):
         return []
     if f.op == "exists":
         return [(v, scope) for v in f.payload] + open_quantifiers(f.args[0], scope)

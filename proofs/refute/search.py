@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
-from certiloop.models.lang.nesting import has_loop_modality
 from certiloop.models.lang.programs import (
     ODE,
     Assign,
@@ -35,7 +34,7 @@ from certiloop.proofs.core.exact import Undecided, evaluate, index_value, truth
 from certiloop.proofs.core.interval import show_value
 from certiloop.proofs.core.odes import holds_along
 from certiloop.proofs.core.solver import ArrayValue, check_valid
-from certiloop.proofs.core.vcgen import Names
+from certiloop.proofs.core.vcgen import Names, executed
 from certiloop.proofs.core.verdicts import _exactness, judge, readable
 from certiloop.proofs.core.wp import expand_modalities, flow_solution, unroll
 from certiloop.proofs.engine.budget import Budget
@@ -98,8 +97,9 @@ FAMILY_SHARE = 2
 def refute(theorem: Theorem, budget: Budget) -> tuple[Refutation | None, str]:
     """(refutation, "") if a violating run was found and re-checked, else (None, why not).
     Every attempt has a deterministic z3 budget, so the outcome does not depend on load."""
-    if has_loop_modality(theorem.guarantee):
-        return None, "no run is searched for a guarantee that holds a loop inside a formula"
+    if executed(theorem.guarantee):
+        return None, ("no run is searched for a guarantee that holds a loop, or a flow without a "
+                      "polynomial solution, inside a formula")
     start = time.perf_counter()
     budget = budget.for_runs()
     why = f"no violating run with at most {theorem.unroll} loop iterations"
