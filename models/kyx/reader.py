@@ -29,6 +29,7 @@ from pathlib import Path
 from lark import Token, Tree
 
 from certiloop.models.kyx.expressions import Builder
+from certiloop.models.kyx.slicing import one_entry
 from certiloop.models.kyx.syntax import (
     KyxError,
     Scope,
@@ -176,8 +177,11 @@ class Entry:
 def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> list[Entry]:
     """Every entry of an archive, each a Theorem or the one-line reason it is not supported.
     A syntax error in the file raises KyxError (no entry can be trusted then). With `only`,
-    just that entry is built; the others are listed by name (theorem and error None)."""
-    tree = parse_tree(text, source)
+    just that entry is built; the others are listed by name (theorem and error None), or
+    left out when the archive could be cut to that entry without parsing them."""
+    tree = _only_tree(text, source, only) if only is not None else None
+    if tree is None:
+        tree = parse_tree(text, source)
     if tree.data in ("bare_entry", "bare_formula"):  # one problem, no ArchiveEntry: named by the file
         name = Path(source).stem if source != "<kyx>" else "problem"
         item = tree if tree.data == "bare_entry" else Tree("bare_entry", [Tree("problem", tree.children)])
@@ -195,9 +199,7 @@ def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> l
         if item.data == "shared":
             _declarations([item], shared)
             continue
-        kind, *rest = item.children
-        name_tok = next(c for c in rest if isinstance(c, Token) and c.type == "STRING")
-        name = json.loads(str(name_tok)) if "\\" in str(name_tok) else str(name_tok)[1:-1]
+        kind, name_tok, name = _header(item)
         if name in seen:
             raise KyxError(f"{_where(source, name_tok)}: two entries named {name!r}")
         seen.add(name)
@@ -214,6 +216,26 @@ def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> l
                 message = f"{_where(source, name_tok)}: {message}"
             entries.append(Entry(name, str(kind), None, message))
     return entries
+
+
+def _only_tree(text: str, source: str, only: str) -> Tree | None:
+    """The parse of the archive cut to entry `only` (slicing.py), if it is exactly that entry."""
+    cut = one_entry(text, only)
+    if cut is None:
+        return None
+    try:
+        tree = parse_tree(cut, source)
+    except KyxError:  # the whole file's parse names the error
+        return None
+    items = [c for c in tree.children if c.data == "entry"] if tree.data == "start" else []
+    return tree if len(items) == 1 and _header(items[0])[2] == only else None
+
+
+def _header(item: Tree) -> tuple[Token, Token, str]:
+    """An entry's kind keyword, its name's token and the name."""
+    kind, *rest = item.children
+    name_tok = next(c for c in rest if isinstance(c, Token) and c.type == "STRING")
+    return kind, name_tok, json.loads(str(name_tok)) if "\\" in str(name_tok) else str(name_tok)[1:-1]
 
 
 def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str) -> Theorem:
