@@ -264,6 +264,52 @@ def test_unsupported_and_malformed_archives_exit_2_with_one_line():
         assert code == 2 and re.search(pattern, err) and len(err.strip().splitlines()) == 1, err
 
 
+MIXED = """
+ArchiveEntry "good"
+  ProgramVariables Real x; End.
+  Problem x >= 0 -> [x := x + 1;] x >= 1 End.
+End.
+ArchiveEntry "real exponent"
+  ProgramVariables Real x; End.
+  Problem x >= 1 -> [x := 2^x;] x >= 1 End.
+End.
+ArchiveEntry "engine lacks the rule"
+  ProgramVariables Real x; Real v; End.
+  Problem v = 0 & x = 0 -> [ {x' = v}@invariant(x = 0 -> v = 0) ] x = 0 End.
+End.
+ArchiveEntry "bad"
+  ProgramVariables Real x; End.
+  Problem x >= 0 -> [x := x - 1;] x >= 0 End.
+End.
+"""
+
+
+def test_a_whole_archive_runs_every_entry_it_can_and_names_the_others(tmp_path):
+    """An entry certiloop cannot read, or whose rule the engine lacks, gets its own row; the
+    others are proved, falsified and gated as usual; the exit code is 2 (bad input)."""
+    archive = tmp_path / "mixed.kyx"
+    archive.write_text(MIXED)
+    code, out, err = run("prove", str(archive), "--json", str(tmp_path / "p.json"))
+    verdicts = {d["model"]: d["verdict"] for d in json.loads((tmp_path / "p.json").read_text())}
+    assert verdicts == {"good": "proved", "real exponent": "not supported",
+                        "engine lacks the rule": "not supported", "bad": "refuted"}
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "(and 1 more)" in err, err
+    assert "1 of 4 models proved, 2 not supported" in out and re.search(r"mixed\.kyx:8:\d+: exponent", out)
+    code, out, _ = run("list", str(archive), "--json")
+    assert code == 0 and [d["expected"] for d in json.loads(out)] == ["proved", "not supported", "proved",
+                                                                       "proved"]
+    code, out, err = run("falsify", str(archive), "--json", "-", "--max-examples", "20")
+    found = {d["model"]: d["verdict"] for d in json.loads(out)}
+    assert code == 2 and found["real exponent"] == "not supported" and found["bad"] == "refuted", err
+    code, out, err = run("gate", str(archive), "--no-cache", "--falsify-examples", "20",
+                         "--json", str(tmp_path / "g.json"))
+    gate = {d["model"]: (d["verdict"], d["passed"]) for d in json.loads((tmp_path / "g.json").read_text())}
+    assert code == 1 and gate == {"good": ("proved", True), "real exponent": ("not supported", False),
+                                  "engine lacks the rule": ("not supported", False),
+                                  "bad": ("refuted", False)}, err
+    assert "FAIL real exponent: expected proved, but it is not supported:" in out
+
+
 def test_a_rule_the_engine_lacks_is_bad_input_naming_the_entry():
     name = "an implication as a differential invariant"
     code, _, err = run("prove", f'{FIXTURES / "kyx_unsupported.kyx"}:"{name}"')

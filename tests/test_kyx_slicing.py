@@ -29,7 +29,10 @@ def _read(text: str, name: str, whole: bool) -> tuple:
         return ("raised", str(exc))
     finally:
         reader._only_tree = saved
-    (entry,) = [e for e in entries if e.name == name]
+    chosen = [e for e in entries if e.name == name]
+    if not chosen:
+        return ("absent", None)
+    (entry,) = chosen
     return (entry.theorem.canonical if entry.theorem else None, entry.error)
 
 
@@ -113,6 +116,23 @@ def test_an_error_elsewhere_does_not_stop_the_chosen_entry():
 ])
 def test_unsure_scans_fall_back_to_the_whole_file(text, why):
     assert one_entry(text, "b" if "b" in text else "a") is None, why
+
+
+# a red team's finds: the scan took text lark reads otherwise for an entry, and proved it
+KEYWORD_IN_A_WORD = ('ArchiveEntry "A"\nProblem x>0 -> x>0 End.\n'
+                     'Tactic_ ArchiveEntry "B" Problem x>=0 -> [x:=x+1;]x>=1 End.\nEnd.\n'
+                     'ArchiveEntry "C" Problem true End. End.\n'
+                     'ArchiveEntryL: "B" ProgramVariables Real x; End.\n'
+                     'Problem x>=0 -> [x:=x-1;]x>=0 End. End.\n')
+TACTIC_AS_A_NAME = ('ArchiveEntry "A"\nProgramVariables Real x, Tactic; End.\n'
+                    'Problem Tactic>=0 -> Tactic>=0 /* End.\n'
+                    'ArchiveEntry "B" Problem x>=0 -> [x:=x+1;]x>=1 End. End.\nLemma "Z" */ End.\nEnd.\n')
+
+
+@pytest.mark.parametrize("text", [KEYWORD_IN_A_WORD, TACTIC_AS_A_NAME])
+def test_keywords_lark_may_read_as_names_make_the_scan_unsure(text):
+    assert one_entry(text, "B") is None
+    assert _read(text, "B", whole=False) == _read(text, "B", whole=True)
 
 
 def test_a_name_not_in_the_archive_lists_the_names():

@@ -17,7 +17,9 @@ from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable
 
+from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.cli.loading import Unsupported
 
 if TYPE_CHECKING:  # the prover (z3, sympy) is imported only when a model is not cached
     from certiloop.proofs.engine.prover import Prover
@@ -160,18 +162,25 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
                      data.get("nonblocking"), opinion, result.inconsistent)
 
 
-def run_gate(theorems: list[Theorem], start_prover: Callable[[], Prover], rlimit: int,
+def _unsupported(model: str, reason: str, expected: str = "proved") -> GateEntry:
+    """A model certiloop cannot read or handle: it fails the gate, with the reason."""
+    return GateEntry(model, expected, "not supported", 0.0, [], reason)
+
+
+def run_gate(theorems: list, start_prover: Callable[[], Prover], rlimit: int,
              opts: GateOptions, cache=None, on_model=None, on_start=None,
              into: list[GateEntry] | None = None) -> list[GateEntry]:
-    """Gate each theorem in order; each entry is appended to `into` as soon as it is done
-    (so an interrupted gate still has the finished ones to report). `start_prover` is called
+    """Gate each theorem in order (an `Unsupported` archive entry fails with its reason); each
+    entry is appended to `into` as soon as it is done (so an interrupted gate still has the
+    finished ones to report). `start_prover` is called
     only if some model is not in the cache (a warm gate never loads z3 or sympy); `rlimit`
     is its budget, part of each cache key."""
     entries = [] if into is None else into
     setting = f"{opts.text()}/rlimit={rlimit}"
-    keys = [cache.key("gate", f"{t.canonical}\n{setting}") if cache else None for t in theorems]
-    hits = [cache.get(key) if cache else None for key in keys]
-    todo = [i for i, hit in enumerate(hits) if hit is None]
+    keys = [cache.key("gate", f"{t.canonical}\n{setting}") if cache and isinstance(t, Theorem) else None
+            for t in theorems]
+    hits = [cache.get(key) if key else None for key in keys]
+    todo = [i for i, (t, hit) in enumerate(zip(theorems, hits)) if hit is None and isinstance(t, Theorem)]
     if todo:
         _import_for_workers()
     prover = start_prover() if todo else None
@@ -181,15 +190,20 @@ def run_gate(theorems: list[Theorem], start_prover: Callable[[], Prover], rlimit
     for i, (theorem, key, hit) in enumerate(zip(theorems, keys, hits)):
         if on_start:
             on_start(theorem.name)
-        if hit is not None:
+        if isinstance(theorem, Unsupported):
+            entry = _unsupported(theorem.name, theorem.reason)
+        elif hit is not None:
             entry = GateEntry.from_json(hit)
             entry.kernel = _kernel_check(theorem)  # the shipped file may have changed: never cached
         else:
             for j in todo[todo.index(i) + 1:todo.index(i) + 1 + AHEAD]:
                 if j not in falsifiers:
                     falsifiers[j] = prover.submit(falsify_task, theorems[j], opts)
-            entry = check_model(theorem, prover, opts, falsifiers.pop(i))
-            if cache and entry.verdict != "unknown":  # a budget may be raised: never cached
+            try:
+                entry = check_model(theorem, prover, opts, falsifiers.pop(i))
+            except ModelError as exc:  # a rule the engine lacks: this model's row, the others run
+                entry = _unsupported(theorem.name, str(exc), theorem.expected)
+            if cache and entry.verdict not in ("unknown", "not supported"):  # a budget may be raised
                 cache.put(key, entry.to_json())
         if cache and entry.verdict == "proved":  # lets `certiloop extract` skip the proof
             cache.put(cache.key("proof", theorem.canonical), {"model": theorem.name, "verdict": "proved"})

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 from certiloop.models import library
@@ -11,13 +12,26 @@ from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
 
 
-def load_all(specs: list[str]) -> list[Theorem]:
+@dataclass(frozen=True)
+class Unsupported:
+    """An archive entry certiloop cannot read or prove: one row saying why, the others run."""
+
+    name: str
+    reason: str
+
+    def to_json(self) -> dict[str, str]:
+        return {"model": self.name, "verdict": "not supported", "reason": self.reason}
+
+
+def load_all(specs: list[str], keep_unsupported: bool = False) -> list:
     """Every MODEL argument resolved, in order; a family name (`sbs`) selects all its models.
-    A selection that matches nothing is bad input."""
-    theorems: list[Theorem] = []
+    A selection that matches nothing is bad input. With `keep_unsupported`, an entry of a
+    whole archive that certiloop cannot read is an `Unsupported` in its place; else (and
+    always for an entry named alone) it is bad input."""
+    theorems: list = []
     for spec in specs:
         if _kyx_spec(spec) is not None:
-            theorems.extend(load_kyx(*_kyx_spec(spec)))
+            theorems.extend(load_kyx(*_kyx_spec(spec), keep_unsupported=keep_unsupported))
             continue
         family = [n for n in library.names() if n.startswith(f"{spec}.")] if "." not in spec else []
         if family:
@@ -46,9 +60,10 @@ def _kyx_spec(spec: str) -> tuple[str, str | None] | None:
     return None
 
 
-def load_kyx(path_text: str, entry: str | None = None) -> list[Theorem]:
+def load_kyx(path_text: str, entry: str | None = None, keep_unsupported: bool = False) -> list:
     """Every entry of a KeYmaera X archive, or the one named; an entry certiloop cannot read
-    is bad input, named with its line and column."""
+    is bad input, named with its line and column (with `keep_unsupported` and no entry
+    named, an `Unsupported` in its place)."""
     from certiloop.models.kyx import read_entries
 
     path = Path(path_text)
@@ -66,6 +81,9 @@ def load_kyx(path_text: str, entry: str | None = None) -> list[Theorem]:
             raise ModelError(f"{path_text}: no entry named {entry!r} (it has: {names}"
                              f"{', ...' if len(entries) > 5 else ''})")
         entries = chosen
+    if keep_unsupported and entry is None and entries:
+        return [e.theorem if e.theorem is not None else Unsupported(e.name, e.error or "not readable")
+                for e in entries]
     bad = [e for e in entries if e.theorem is None]
     if bad:
         more = f" (and {len(bad) - 1} more entries)" if len(bad) > 1 else ""

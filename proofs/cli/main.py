@@ -318,25 +318,28 @@ def cmd_list(as_json: bool = False, models: list[str] | None = None) -> int:
 
     from certiloop.models import library
     from certiloop.proofs.cli import ui
-    from certiloop.proofs.cli.loading import load_all
+    from certiloop.proofs.cli.loading import Unsupported, load_all
 
-    theorems = load_all(models) if models else [library.get(n) for n in library.names()]
+    found = load_all(models, keep_unsupported=True) if models else [library.get(n) for n in library.names()]
+    # an archive entry certiloop cannot read is listed, its reason where the description goes
+    rows = [(t.name, "not supported", t.reason) if isinstance(t, Unsupported) else
+            (t.name, t.expected, t.description) for t in found]
     if as_json:
-        print(json.dumps([{"model": t.name, "expected": t.expected, "description": t.description}
-                          for t in theorems], indent=2))
+        print(json.dumps([{"model": name, "expected": expected, "description": what}
+                          for name, expected, what in rows], indent=2))
         return EXIT_OK
     out = ui.console()
     table = ui.table(out)
     table.add_column("model", no_wrap=True)
     table.add_column("expected", no_wrap=True)
     table.add_column("what it is", min_width=20)
-    for t in theorems:
-        table.add_row(escape(t.name), t.expected, escape(t.description))
+    for name, expected, what in rows:
+        table.add_row(escape(name), expected, escape(what))
     if _narrowest(out, table) <= out.width:
         out.print(table)
     else:  # names too long for a table at this width: a paragraph per model
-        for t in theorems:
-            ui.say(out, f"{t.name} ({t.expected}): {t.description}")
+        for name, expected, what in rows:
+            ui.say(out, f"{name} ({expected}): {what}")
     return EXIT_OK
 
 
@@ -416,7 +419,7 @@ def cmd_gate(args: argparse.Namespace) -> int:
     from certiloop.proofs.cli.loading import load_all, project_models
     from certiloop.proofs.engine.cache import Cache
 
-    theorems = load_all(args.models or project_models())
+    theorems = load_all(args.models or project_models(), keep_unsupported=True)
     cache = None if args.no_cache else Cache(Path(args.cache) if args.cache else None)
     opts = GateOptions(falsify_examples=args.falsify_examples, cross_check=args.cross_check)
     level = ui.verbosity(args)
@@ -471,37 +474,50 @@ def _budget(args: argparse.Namespace):
 def cmd_prove(args: argparse.Namespace) -> int:
     _check_common(args)
     _check_outputs(("--json", args.json, "file or -"), ("--smtlib", args.smtlib, "folder"))
-    from certiloop.proofs.cli.loading import load_all
+    from certiloop.proofs.cli.loading import Unsupported, load_all
 
-    theorems = load_all(args.models)  # all bad names fail before any work
+    theorems = load_all(args.models, keep_unsupported=True)  # all bad names fail before any work
 
+    from certiloop.models.lang.terms import ModelError
     from certiloop.proofs.cli import ui
-    from certiloop.proofs.cli.report import show_result
+    from certiloop.proofs.cli.report import show_result, show_unsupported
     from certiloop.proofs.engine.prover import Prover
 
     out, level = console(stderr=args.json == "-"), ui.verbosity(args)
     smt_dir = Path(args.smtlib) if args.smtlib else None
-    start, results = time.perf_counter(), []
+    start, results, docs, unsupported = time.perf_counter(), [], [], []
     try:
         with Prover(jobs=args.jobs, budget=_budget(args), executor=args.executor) as prover, \
                 ui.ModelProgress("proving", len(theorems), level > ui.QUIET) as progress:
             for theorem in theorems:
                 progress.model(theorem.name)
-                with _naming(theorem.name):
-                    result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
-                                          smtlib_dir=smt_dir)
+                try:
+                    with _naming(theorem.name):
+                        if isinstance(theorem, Unsupported):
+                            raise ModelError(theorem.reason)
+                        result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
+                                              smtlib_dir=smt_dir)
+                except ModelError as exc:  # one of several models: its row, and the others run
+                    if len(theorems) == 1:
+                        raise
+                    unsupported.append(Unsupported(theorem.name, str(exc)))
+                    show_unsupported(out, theorem.name, str(exc))
+                    docs.append(unsupported[-1].to_json())
+                    continue
                 if args.cross_check:
                     _cross_check(result)
                 show_result(out, result, level)
                 results.append(result)
+                docs.append(result.to_json())
     except KeyboardInterrupt:
-        _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
+        _write_json(args.json, _json_payload(docs, len(theorems)))
         raise
     proved = sum(r.verdict == "proved" for r in results)
-    ui.say(out, f"{proved} of {len(results)} model{'s' * (len(results) != 1)} proved "
+    missing = f", {len(unsupported)} not supported" if unsupported else ""
+    ui.say(out, f"{proved} of {len(theorems)} model{'s' * (len(theorems) != 1)} proved{missing} "
                 f"({time.perf_counter() - start:.1f} s)")
-    _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
-    return _prove_exit(results)
+    _write_json(args.json, _json_payload(docs, len(theorems)))
+    return _prove_exit(results, unsupported)
 
 
 @contextlib.contextmanager
@@ -517,7 +533,7 @@ def _naming(model: str):
         raise ModelError(f"{model}: {exc}") from None
 
 
-def _prove_exit(results: list) -> int:
+def _prove_exit(results: list, unsupported: list = ()) -> int:
     alarms = [r for r in results if r.extra.get("cross_check", {}).get("disagreements")]
     for r in alarms:
         print(f"certiloop: SOUNDNESS ALARM: cvc5 disagrees with z3 on {r.model}: "
@@ -527,10 +543,19 @@ def _prove_exit(results: list) -> int:
     for r in results:
         if r.ill_defined:
             print(f"certiloop: error: {r.model} is {r.reason}", file=sys.stderr)
-    if any(r.ill_defined for r in results):
+    _name_unsupported(unsupported)
+    if any(r.ill_defined for r in results) or unsupported:
         return EXIT_BAD_INPUT
     all_proved = all(r.verdict == "proved" and r.nonblocking_verdict in (None, "proved") for r in results)
     return EXIT_OK if all_proved else EXIT_FAILED
+
+
+def _name_unsupported(unsupported: list) -> None:
+    """Models certiloop cannot read or handle are bad input (exit 2): the first, on stderr."""
+    if unsupported:
+        more = f" (and {len(unsupported) - 1} more)" if len(unsupported) > 1 else ""
+        print(f"certiloop: error: {unsupported[0].name} is not supported{more}: {unsupported[0].reason}",
+              file=sys.stderr)
 
 
 def _cross_check(result) -> None:
@@ -642,36 +667,52 @@ def cmd_falsify(args: argparse.Namespace) -> int:
             raise BadInput(str(exc)) from None
         _write_json(args.json, _json_payload(docs, len(docs)))
         return code
-    from certiloop.proofs.cli.loading import load_all
+    from certiloop.proofs.cli.loading import Unsupported, load_all
 
-    theorems = load_all(args.models)
+    theorems = load_all(args.models, keep_unsupported=True)
 
     from certiloop.falsify.report import show_falsification
     from certiloop.falsify.search import Options, falsify
+    from certiloop.models.lang.terms import ModelError
     from certiloop.proofs.cli import ui
+    from certiloop.proofs.cli.report import show_unsupported
 
     database = None if args.database.lower() == "none" else Path(args.database)
     opts = Options(max_examples=args.max_examples, seed=args.seed, families=(1, args.max_family),
                    max_steps=args.steps, database=database)
     out, level = console(stderr=args.json == "-"), ui.verbosity(args)
-    start, results = time.perf_counter(), []
+    start, results, docs, unsupported = time.perf_counter(), [], [], []
     try:
         with ui.ModelProgress("falsifying", len(theorems), level > ui.QUIET) as progress:
             for theorem in theorems:
                 progress.model(theorem.name)
-                result = falsify(theorem, opts)
+                try:
+                    with _naming(theorem.name):
+                        if isinstance(theorem, Unsupported):
+                            raise ModelError(theorem.reason)
+                        result = falsify(theorem, opts)
+                except ModelError as exc:  # one of several models: its row, and the others run
+                    if len(theorems) == 1:
+                        raise
+                    unsupported.append(Unsupported(theorem.name, str(exc)))
+                    show_unsupported(out, theorem.name, str(exc))
+                    docs.append(unsupported[-1].to_json())
+                    continue
                 show_falsification(out, result, level)
                 if args.plot and result.run is not None:
                     _plot(args.plot, result, theorem.name, len(theorems) > 1, out, level)
                 results.append(result)
+                docs.append(result.to_json())
     except KeyboardInterrupt:
-        _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
+        _write_json(args.json, _json_payload(docs, len(theorems)))
         raise
     found = sum(r.found for r in results)
-    ui.say(out, f"{found} of {len(results)} model{'s' * (len(results) != 1)} with a violating run "
-                f"({time.perf_counter() - start:.1f} s)")
-    _write_json(args.json, _json_payload([r.to_json() for r in results], len(theorems)))
-    return EXIT_FAILED if found else EXIT_OK
+    missing = f", {len(unsupported)} not supported" if unsupported else ""
+    ui.say(out, f"{found} of {len(theorems)} model{'s' * (len(theorems) != 1)} with a violating run"
+                f"{missing} ({time.perf_counter() - start:.1f} s)")
+    _write_json(args.json, _json_payload(docs, len(theorems)))
+    _name_unsupported(unsupported)
+    return EXIT_BAD_INPUT if unsupported else EXIT_FAILED if found else EXIT_OK
 
 
 def _plot(name: str, result, model: str, several: bool, out, level: int) -> None:

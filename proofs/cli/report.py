@@ -13,7 +13,8 @@ from certiloop.proofs.cli import ui
 if TYPE_CHECKING:  # annotations only: a warm gate's table must not load z3 and sympy
     from certiloop.proofs.engine.prover import TheoremResult
 
-STYLE = {"proved": "green", "refuted": "red", "unknown": "yellow", "rule failed": "yellow"}
+STYLE = {"proved": "green", "refuted": "red", "unknown": "yellow", "rule failed": "yellow",
+         "not supported": "magenta"}
 
 # an obligation that is false past an incomplete rule shows the rule failing, not the claim
 RULE_HINTS = {
@@ -56,6 +57,12 @@ def obligations_table(result: TheoremResult, out: Console | None = None) -> Tabl
         table.add_row(o.id, escape(o.path), verdict_text(label(o.verdict, o.rule)), escape(o.backend),
                       f"{o.seconds:.3f}")
     return table
+
+
+def show_unsupported(console: Console, name: str, reason: str) -> None:
+    """An archive entry certiloop cannot read or prove: its row, with the one-line reason."""
+    console.print(f"[bold]{escape(name)}[/]: {verdict_text('not supported')}", highlight=False)
+    ui.say(console, f"  {reason}")
 
 
 def show_result(console: Console, result: TheoremResult, level: int = ui.NORMAL) -> None:
