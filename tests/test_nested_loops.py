@@ -138,7 +138,7 @@ def test_witness_options_start_with_the_enclosing_variable():
 
 
 @pytest.mark.parametrize("problem, why", [
-    ("x > 0 -> <{x:=x+1;}*>x > 5", "diamond"),
+    ("x > 0 -> <{x:=x+1;}*>[{x:=x-1;}*]x > 5", "diamond's postcondition"),
     ("[{x:=x+1;}*]x > 0 -> x > 0", "assumption"),
     ("\\forall y ([{x:=x+1;}*]x > y -> x > y)", "left of `->`"),
     ("!([{x:=x+1;}*]x > 0)", "negation"),

@@ -21,7 +21,11 @@ A guarantee holding a loop inside a modality (models/lang/nesting.py) is taken a
 sequent rules before anything is emitted: ∧R (each conjunct), →R (the left joins the facts),
 ∨R (the other disjuncts false), ∀R (fresh symbols), ∃R (the witness term the theorem gives,
 evaluated here), and [a]P by executing a from this state as above, its loops by the loop rule
-with their annotation or else the box's own postcondition as invariant.
+with their annotation or else the box's own postcondition as invariant. A diamond <a>P there
+whose program holds a loop is proved by the runs with at most DIAMOND_ITERATIONS iterations of
+each loop (and a flow without a polynomial solution by its run of duration 0): <a'>P -> <a>P
+for runs a' among a's, so a proof proves it; a failure is unknown (rule "unrolled"), as more
+iterations may reach P.
 """
 
 from __future__ import annotations
@@ -31,7 +35,18 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from certiloop.models.lang.nesting import divides, has_loop_modality, loop_nesting_problem
-from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
+from certiloop.models.lang.programs import (
+    ODE,
+    Assign,
+    Choice,
+    Havoc,
+    Loop,
+    Program,
+    Seq,
+    Test,
+    is_loop_free,
+    written,
+)
 from certiloop.models.lang.terms import (
     BOOL,
     FALSE,
@@ -58,7 +73,7 @@ from certiloop.proofs.core.odes import (
     solvable,
 )
 from certiloop.proofs.core.wd import defined, has_division
-from certiloop.proofs.core.wp import expand_modalities
+from certiloop.proofs.core.wp import diamond, expand_modalities, unroll
 
 
 @dataclass(frozen=True)
@@ -219,6 +234,13 @@ class VCGen:
                 self.exec(goal.payload, st.at(f"[{_short(goal.payload)}]"), lambda s: self.establish(s, post))
             finally:
                 self.nested_posts.pop()
+        elif op == "diamond" and not is_loop_free(goal.payload):  # fewer runs: see the docstring
+            # a flow without a polynomial solution keeps its run of duration 0 (fewer runs again)
+            post = expand_modalities(goal.args[0], self.names)
+            fewer = diamond(unroll(goal.payload, DIAMOND_ITERATIONS), post, self.names, unsolvable="stay")
+            st = st.via(f"<{_short(goal.payload)}> in at most {DIAMOND_ITERATIONS} iterations", "unrolled")
+            self.require_defined(st, "the guarantee", fewer, annotation=True)
+            self.emit(st, fewer, "postcondition")
         else:  # a diamond or a negation: expanded exactly if it can be (wp.py says why not)
             self.require_defined(st, "the guarantee", goal, annotation=True)
             self.emit(st, goal, "postcondition")
@@ -396,7 +418,8 @@ PREMISE_NAMES = {"nonzero": "never zero in the domain"}
 # which incomplete rule to blame when several lie on a path: an ODE that lost information
 # explains a failure downstream better than the loop around it
 BLAME_ORDER = ("dW", "dI", "dI-init", "dC", "guarantee-as-invariant", "loop-invariant", "loop-init",
-               "witness", "guarded")
+               "witness", "unrolled", "guarded")
+DIAMOND_ITERATIONS = 3  # a loop inside a diamond: the runs with at most this many iterations
 
 
 def _blamed(rules: tuple[str, ...]) -> str:
