@@ -19,7 +19,7 @@ from certiloop.proofs.core.vcgen import DIAMOND_ITERATIONS
 from certiloop.proofs.engine import Prover
 
 
-def entry(problem: str, variables: str = "Real x, v, a, t;"):
+def entry(problem: str, variables: str = "Real x, y, v, a, t;"):
     (e,) = read_entries(f'ArchiveEntry "e" ProgramVariables {variables} End. Problem {problem} End. End.')
     if e.error:
         raise KyxError(e.error)
@@ -98,6 +98,22 @@ def test_a_flow_without_a_polynomial_solution_keeps_only_its_run_of_duration_zer
     assert prove("x = 1 -> <{{x' = -x & x >= 1/2}}*> x > 1").verdict != "proved"
 
 
+@pytest.mark.parametrize("problem", [  # a red team's finds: each was proved
+    "x = 0 & y = 0 -> <{{x' = y*(1/y)}}*> x >= 1",  # 0*(1/0): x stays 0
+    "x = -1 -> <{{x' = 1 & x*(1/x) >= 1}}*> x >= 1",  # the flow passes x = 0 in its domain
+    "x = 0 & y = 0 -> <{x' = y/y}> x >= 1",  # without a loop too
+    "x = 0 & y = 0 -> <{x := x + 1;}*>[{x' = y/y}] x >= 1",  # in the postcondition
+    "y = 0 -> <x := 1/y;> true",  # an assignment the rest never reads
+])
+def test_a_division_the_expansion_cancels_is_still_checked(problem):
+    """sympy solves `x' = y/y` as x + s: the expanded diamond divides by nothing. The
+    program's own statements are checked defined, for any values of what it writes."""
+    result = prove(problem)
+    assert result.verdict != "proved"
+    assert any("well-defined: the program inside" in o.path for o in result.obligations)
+    assert prove("x = 0 & y = 1 -> <{{x' = y/y}}*> x >= 1").verdict == "proved"  # y = 1: defined
+
+
 def test_a_test_that_blocks_every_iteration_is_not_skipped():
     # from x = 1 no iteration can run (?x > 5 fails), and x = 0 does not hold now: false
     result = prove("x = 1 -> <{?x > 5; x := 0;}*> x = 0")
@@ -114,3 +130,16 @@ def test_a_diamond_loop_where_fewer_runs_would_prove_too_much_is_refused(problem
     with pytest.raises(KyxError, match="1:") as caught:
         entry(problem)
     assert why in str(caught.value)
+
+
+def test_a_box_loop_claim_is_not_refuted_through_an_unrolled_diamond():
+    """Its negation `<a*>!P` would be proved by a few unrolled iterations, the run search's job
+    (and nested loops' unrollings blow up: 55 s on IJRR17's Theorem 9): left to the search."""
+    from certiloop.models.lang.terms import ModelError
+    from certiloop.proofs.refute.negation import negation_at
+
+    theorem = entry("x >= 0 -> [{x := x - 1;}*] x >= 0")
+    with pytest.raises(ModelError, match="left to the run search"):
+        negation_at(theorem, {"x": 0})
+    result = prove("x >= 0 -> [{x := x - 1;}*] x >= 0")
+    assert result.verdict == "refuted" and not result.run.negation_proved  # by a run instead

@@ -69,10 +69,10 @@ class Builder:
         self.binders: list[frozenset[str]] = []  # symbols bound around what is being built
         self.made: set[str] = set()  # names made up here (fresh_variable)
         self.expanding: list[str] = []
-        self.olds: dict[str, Node] | None = None  # in ODE annotations: old(e) -> its variable
+        self.olds: dict[str, Node] | None = None  # in loop and ODE annotations: old(e) -> its variable
 
     def old(self, e: Node) -> Node:
-        """old(e) in an ODE's annotation: e's value before the ODE, kept in a fresh variable."""
+        """old(e) in a loop's or an ODE's annotation: e's value before it, kept in a fresh variable."""
         assert self.olds is not None
         for name, value in self.olds.items():
             if value.same(e):
@@ -505,8 +505,10 @@ class Builder:
 
     def p_loop(self, t, env):
         body, _star, *notes = t.children
-        invariants = self._annotations(notes, env)
-        return loop(self.program(body, env), And(*invariants) if invariants else None)
+        invariants, olds = self._annotations_with_olds(notes, env)
+        built = loop(self.program(body, env), And(*invariants) if invariants else None)
+        # old(e) in the invariant: e's value before the loop (kept while the loop runs)
+        return seq(*(self._assign(Real(n), e, t) for n, e in olds.items()), built) if olds else built
 
     def p_ode(self, t, env):
         eqs_tree, *rest = t.children
@@ -522,12 +524,7 @@ class Builder:
                                 "symbol in an ODE right-hand side is not supported")
             eqs.append((Real(str(lhs)[:-1]), value))
         domain = TRUE if domain_tree is None else self._bool(domain_tree, env)
-        outer, self.olds = self.olds, {}
-        try:
-            invariants = self._annotations(notes, env)
-            olds = self.olds
-        finally:
-            self.olds = outer
+        invariants, olds = self._annotations_with_olds(notes, env)
         # along the flow x' equals its right-hand side (only primes already in use matter)
         flow = {self.primes[x.payload]: f for x, f in eqs if x.payload in self.primes}
         domain, invariants = substitute(domain, flow), [substitute(i, flow) for i in invariants]
@@ -537,6 +534,14 @@ class Builder:
             raise self.fail(t, str(exc)) from None
         # old(e): remember e just before the flow
         return seq(*(self._assign(Real(n), e, t) for n, e in olds.items()), system) if olds else system
+
+    def _annotations_with_olds(self, notes: list[Tree], env) -> tuple[list[Node], dict[str, Node]]:
+        """A loop's or an ODE's annotations, and the `old(e)` they use: fresh name -> e."""
+        outer, self.olds = self.olds, {}
+        try:
+            return self._annotations(notes, env), self.olds
+        finally:
+            self.olds = outer
 
     def _annotations(self, notes: list[Tree], env) -> list[Node]:
         out: list[Node] = []

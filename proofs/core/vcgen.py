@@ -44,12 +44,14 @@ from certiloop.models.lang.programs import (
     Program,
     Seq,
     Test,
+    children,
     is_loop_free,
     written,
 )
 from certiloop.models.lang.terms import (
     BOOL,
     FALSE,
+    MODALITIES,
     REAL,
     TRUE,
     And,
@@ -240,6 +242,7 @@ class VCGen:
             fewer = diamond(unroll(goal.payload, DIAMOND_ITERATIONS), post, self.names, unsolvable="stay")
             st = st.via(f"<{_short(goal.payload)}> in at most {DIAMOND_ITERATIONS} iterations", "unrolled")
             self.require_defined(st, "the guarantee", fewer, annotation=True)
+            self._programs_defined(st, "the guarantee", goal)  # `fewer` has lost the programs
             self.emit(st, fewer, "postcondition")
         else:  # a diamond or a negation: expanded exactly if it can be (wp.py says why not)
             self.require_defined(st, "the guarantee", goal, annotation=True)
@@ -286,6 +289,26 @@ class VCGen:
         if any(has_division(f) for f in expanded):
             self.emit(st, And(*(defined(f) for f in expanded)), f"well-defined: {what} (no division by 0)",
                       "safety" if annotation or self.taking_apart else "defined")
+        for f in parts:
+            self._programs_defined(st, what, f)
+
+    def _programs_defined(self, st: State, what: str, f: Node) -> None:
+        if f.sort == BOOL:
+            for program in _modal_programs(f):
+                self._program_defined(st, what, program)
+
+    def _program_defined(self, st: State, what: str, p: Program) -> None:
+        """The statements of a program inside a formula's modality divide only by nonzero terms,
+        checked on the statements themselves: expanding the modality may cancel a division
+        (sympy solves `x' = y/y` as x + s; an assignment the rest never reads vanishes). Checked
+        for any values of what the program writes, which is stricter than its runs need, so a
+        failure is unknown, never ill-defined."""
+        parts = _statement_parts(p)
+        if not any(has_division(f) for f in parts):
+            return
+        anywhere = self.havoc(st, written(p), "anywhere the program may go").at(f"inside {_short(p)}")
+        needed = And(*(defined(expand_modalities(f, self.names) if f.sort == BOOL else f) for f in parts))
+        self.emit(anywhere, needed, f"well-defined: the program inside {what} (no division by 0)")
 
     def havoc(self, st: State, variables: dict[str, Node], why: str) -> State:
         self.names.count += 1
@@ -437,6 +460,35 @@ def _unsolved_box(f: Node) -> bool:
     if f.op == "box" and any(not solvable(ode) for ode in _odes(f.payload)):
         return True
     return any(_unsolved_box(a) for a in f.args)
+
+
+def _modal_programs(f: Node) -> list[Program]:
+    """The programs of the modalities inside f (and inside the formulas of those programs)."""
+    own = [f.payload] if f.op in MODALITIES else []
+    inner = [q for p in own for g in _program_formulas(p) for q in _modal_programs(g)]
+    return own + inner + [q for a in f.args for q in _modal_programs(a)]
+
+
+def _statement_parts(p: Program) -> list[Node]:
+    """The terms and formulas a program's statements evaluate: assigned values (and array
+    indices), tests, an ODE's right-hand sides and domain."""
+    if isinstance(p, Assign):
+        return [p.value, *_indices(p.target)]
+    if isinstance(p, Havoc):
+        return list(_indices(p.target))
+    if isinstance(p, Test):
+        return [p.cond]
+    if isinstance(p, ODE):
+        return [p.domain, *(f for _, f in p.eqs)]
+    return [f for q in children(p) for f in _statement_parts(q)]
+
+
+def _program_formulas(p: Program) -> list[Node]:
+    if isinstance(p, Test):
+        return [p.cond]
+    if isinstance(p, ODE):
+        return [p.domain, *p.invariants]
+    return [f for q in children(p) for f in _program_formulas(q)]
 
 
 def _odes(p: Program) -> list[ODE]:
