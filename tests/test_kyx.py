@@ -83,6 +83,26 @@ def test_old_in_an_ode_annotation_is_the_value_before_the_flow():
     assert "x_old" in free_vars(flow.invariants[0])
 
 
+def test_old_in_a_loop_invariant_is_the_value_before_the_loop():
+    """As KeYmaera X reads it (IJRR17's Theorem 9 uses it on an inner loop): a fresh variable
+    assigned just before the loop, which the loop does not write."""
+    from certiloop.models.lang.programs import Loop, written
+    from certiloop.proofs.engine.prover import Prover
+
+    text = """ArchiveEntry "up" ProgramVariables Real x; Real y; End.
+      Problem x >= 0 & y = x -> [{x := x + 1;}*@invariant(x >= old(x) & y = old(x))] x >= y End. End.
+    ArchiveEntry "down" ProgramVariables Real x; End.
+      Problem x >= 0 -> [{x := x - 1;}*@invariant(x <= old(x))] x >= 0 End. End."""
+    up, down = (e.theorem for e in read_entries(text))
+    first, loop = up.program.parts
+    assert isinstance(first, Assign) and first.target.name == "x_old" and isinstance(loop, Loop)
+    assert "x_old" in free_vars(loop.invariant) and "x_old" not in written(loop.body)
+    with Prover(jobs=1) as prover:
+        assert prover.prove(up).verdict == "proved"
+        found = prover.prove(down)  # x = 0 steps to -1: a replayed run, the invariant notwithstanding
+        assert found.verdict == "refuted" and found.run.replayed
+
+
 def _value(n, env):
     """An evaluator written for this test (independent of the engine)."""
     op = n.op
