@@ -107,11 +107,23 @@ def test_a_flow_without_a_polynomial_solution_keeps_only_its_run_of_duration_zer
 ])
 def test_a_division_the_expansion_cancels_is_still_checked(problem):
     """sympy solves `x' = y/y` as x + s: the expanded diamond divides by nothing. The
-    program's own statements are checked defined, for any values of what it writes."""
+    program's statements are checked defined along its runs (wdmodal.py)."""
     result = prove(problem)
     assert result.verdict != "proved"
-    assert any("well-defined: the program inside" in o.path for o in result.obligations)
+    assert any("well-defined" in o.path and o.verdict != "proved" for o in result.obligations)
     assert prove("x = 0 & y = 1 -> <{{x' = y/y}}*> x >= 1").verdict == "proved"  # y = 1: defined
+
+
+@pytest.mark.parametrize("problem", [  # a second red team's finds: each was proved
+    "z = 0 & x = 1 -> \\exists x (x = 0 & <{z' = x/x}> z >= 1) | false",  # the bound x, not the free one
+    "x = 1 & z = 0 -> <x := x - 1;> <{z' = x/x}> z >= 1",  # after the first program's write
+    "x = 1 & z = 0 -> <{x := x - 1;}*> (x = 0 & <{z' = x/x}> z >= 1)",  # after the loop
+    "x = 1 -> \\forall z [x := z;]<y := 1/x;>true",  # 1/0 at z = 0
+    "x = 0 & z = 0 & <{z' = x/x}> z >= 1 -> z = 0",  # in an assumption
+])
+def test_a_division_inside_a_nested_program_is_checked_in_the_state_it_runs_in(problem):
+    result = prove(problem.replace("z", "t"))
+    assert result.verdict != "proved"
 
 
 def test_a_test_that_blocks_every_iteration_is_not_skipped():

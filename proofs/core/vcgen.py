@@ -44,17 +44,16 @@ from certiloop.models.lang.programs import (
     Program,
     Seq,
     Test,
-    children,
     is_loop_free,
     written,
 )
 from certiloop.models.lang.terms import (
     BOOL,
     FALSE,
-    MODALITIES,
     REAL,
     TRUE,
     And,
+    Diamond,
     Implies,
     ModelError,
     Node,
@@ -75,6 +74,7 @@ from certiloop.proofs.core.odes import (
     solvable,
 )
 from certiloop.proofs.core.wd import defined, has_division
+from certiloop.proofs.core.wdmodal import defined_modal, may_overstate
 from certiloop.proofs.core.wp import diamond, expand_modalities, unroll
 
 
@@ -175,7 +175,7 @@ class VCGen:
     def run(self) -> list[Obligation]:
         t = self.theorem
         assumptions = expand_modalities(t.assumptions, self.names)
-        self.require_defined(State((), {}, ()), "the assumptions", assumptions)
+        self.require_defined(State((), {}, ()), "the assumptions", t.assumptions)
         for what, condition in t.well_defined:  # a translation's side conditions (kyx square roots)
             self.emit(State((), {}, ()), condition, f"well-defined: {what}", "defined")
         for what, condition in t.defined_if:  # stricter than needed: failing shows nothing
@@ -238,11 +238,10 @@ class VCGen:
                 self.nested_posts.pop()
         elif op == "diamond" and not is_loop_free(goal.payload):  # fewer runs: see the docstring
             # a flow without a polynomial solution keeps its run of duration 0 (fewer runs again)
-            post = expand_modalities(goal.args[0], self.names)
-            fewer = diamond(unroll(goal.payload, DIAMOND_ITERATIONS), post, self.names, unsolvable="stay")
+            runs = unroll(goal.payload, DIAMOND_ITERATIONS)
+            fewer = diamond(runs, expand_modalities(goal.args[0], self.names), self.names, unsolvable="stay")
             st = st.via(f"<{_short(goal.payload)}> in at most {DIAMOND_ITERATIONS} iterations", "unrolled")
-            self.require_defined(st, "the guarantee", fewer, annotation=True)
-            self._programs_defined(st, "the guarantee", goal)  # `fewer` has lost the programs
+            self.require_defined(st, "the guarantee", Diamond(runs, goal.args[0]), annotation=True)
             self.emit(st, fewer, "postcondition")
         else:  # a diamond or a negation: expanded exactly if it can be (wp.py says why not)
             self.require_defined(st, "the guarantee", goal, annotation=True)
@@ -283,32 +282,16 @@ class VCGen:
 
     def require_defined(self, st: State, what: str, *parts: Node, annotation: bool = False) -> None:
         """An obligation that the terms and formulas `parts`, evaluated in this state, never
-        divide by zero. For the claim's own parts that makes the claim meaningful (kind
-        `defined`); for an annotation (an invariant) it is one more thing the proof needs."""
-        expanded = [expand_modalities(f, self.names) if f.sort == BOOL else f for f in parts]
-        if any(has_division(f) for f in expanded):
-            self.emit(st, And(*(defined(f) for f in expanded)), f"well-defined: {what} (no division by 0)",
-                      "safety" if annotation or self.taking_apart else "defined")
-        for f in parts:
-            self._programs_defined(st, what, f)
-
-    def _programs_defined(self, st: State, what: str, f: Node) -> None:
-        if f.sort == BOOL:
-            for program in _modal_programs(f):
-                self._program_defined(st, what, program)
-
-    def _program_defined(self, st: State, what: str, p: Program) -> None:
-        """The statements of a program inside a formula's modality divide only by nonzero terms,
-        checked on the statements themselves: expanding the modality may cancel a division
-        (sympy solves `x' = y/y` as x + s; an assignment the rest never reads vanishes). Checked
-        for any values of what the program writes, which is stricter than its runs need, so a
-        failure is unknown, never ill-defined."""
-        parts = _statement_parts(p)
-        if not any(has_division(f) for f in parts):
+        divide by zero, the programs of their modalities along their runs (wdmodal.py). For
+        the claim's own parts that makes the claim meaningful (kind `defined`); for an
+        annotation (an invariant), or where the check asks more than the runs need, it is one
+        more thing the proof needs (a failure is unknown)."""
+        needed = And(*(defined_modal(f, self.names) if f.sort == BOOL else defined(f) for f in parts))
+        if needed.op == "true":
             return
-        anywhere = self.havoc(st, written(p), "anywhere the program may go").at(f"inside {_short(p)}")
-        needed = And(*(defined(expand_modalities(f, self.names) if f.sort == BOOL else f) for f in parts))
-        self.emit(anywhere, needed, f"well-defined: the program inside {what} (no division by 0)")
+        overstated = any(f.sort == BOOL and may_overstate(f) for f in parts)
+        self.emit(st, needed, f"well-defined: {what} (no division by 0)",
+                  "safety" if annotation or self.taking_apart or overstated else "defined")
 
     def havoc(self, st: State, variables: dict[str, Node], why: str) -> State:
         self.names.count += 1
@@ -460,35 +443,6 @@ def _unsolved_box(f: Node) -> bool:
     if f.op == "box" and any(not solvable(ode) for ode in _odes(f.payload)):
         return True
     return any(_unsolved_box(a) for a in f.args)
-
-
-def _modal_programs(f: Node) -> list[Program]:
-    """The programs of the modalities inside f (and inside the formulas of those programs)."""
-    own = [f.payload] if f.op in MODALITIES else []
-    inner = [q for p in own for g in _program_formulas(p) for q in _modal_programs(g)]
-    return own + inner + [q for a in f.args for q in _modal_programs(a)]
-
-
-def _statement_parts(p: Program) -> list[Node]:
-    """The terms and formulas a program's statements evaluate: assigned values (and array
-    indices), tests, an ODE's right-hand sides and domain."""
-    if isinstance(p, Assign):
-        return [p.value, *_indices(p.target)]
-    if isinstance(p, Havoc):
-        return list(_indices(p.target))
-    if isinstance(p, Test):
-        return [p.cond]
-    if isinstance(p, ODE):
-        return [p.domain, *(f for _, f in p.eqs)]
-    return [f for q in children(p) for f in _statement_parts(q)]
-
-
-def _program_formulas(p: Program) -> list[Node]:
-    if isinstance(p, Test):
-        return [p.cond]
-    if isinstance(p, ODE):
-        return [p.domain, *p.invariants]
-    return [f for q in children(p) for f in _program_formulas(q)]
 
 
 def _odes(p: Program) -> list[ODE]:
