@@ -60,6 +60,7 @@ from certiloop.models.lang.terms import (
     Not,
     Or,
     Var,
+    free_vars,
     store,
     substitute,
 )
@@ -361,14 +362,18 @@ class VCGen:
     def _ode_region(self, p: ODE, st: State) -> None:
         """Wherever the flow may go (any values of its variables inside the domain), its
         right-hand sides are defined, and the domain everywhere. (The links of a cut chain are
-        checked defined in _ode_cuts, against the links that really precede them.)"""
+        checked defined in _ode_cuts, against the links that really precede them.) A condition
+        on the flow's own variables asks more than its runs need (x = 1 -> [{x' = 1, y' = 1/x}]
+        never divides by 0), so its failure is unknown, not ill-defined."""
         if not any(has_division(f) for f in (p.domain, *(f for _, f in p.eqs))):
             return
         anywhere = self.havoc(st, {v.payload: v for v in p.variables}, "anywhere the ODE may go").at("ODE")
         flow = And(defined(p.domain), Implies(p.domain, And(*(defined(f) for _, f in p.eqs))))
         if flow.op != "true":
+            mentioned = free_vars(flow)
+            stricter = any(v.payload in mentioned for v in p.variables)
             self.emit(anywhere, flow, "well-defined: right-hand side and domain (no division by 0)",
-                      "safety" if self.taking_apart else "defined")
+                      "safety" if self.taking_apart or stricter else "defined")
 
     def _ode(self, p: ODE, st: State, k: Callable[[State], None]) -> None:
         self._ode_region(p, st)

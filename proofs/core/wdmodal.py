@@ -90,16 +90,16 @@ def along(p: Program, after: Node, names) -> Node:
 
 
 def may_overstate(f: Node) -> bool:
-    """Does defined_modal(f) ask more than f's runs need (an ODE or a loop whose statements
-    divide, checked for any values of their variables)?"""
+    """Does defined_modal(f) ask more than f's runs need (an ODE whose statements divide, or
+    without a polynomial solution, or a loop: checked for any values of their variables)?"""
     if f.op in MODALITIES and _region_checked(f.payload):
         return True
     return any(may_overstate(a) for a in f.args)
 
 
 def _region_checked(p: Program) -> bool:
-    if isinstance(p, ODE):
-        return any(has_division(g) for g in (p.domain, *(f for _, f in p.eqs)))
+    if isinstance(p, ODE):  # its region, or where it ends without a polynomial solution
+        return any(has_division(g) for g in (p.domain, *(f for _, f in p.eqs))) or flow_solution(p)[1] is None
     if isinstance(p, Loop):
         return True
     if isinstance(p, Test):
