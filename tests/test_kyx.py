@@ -314,6 +314,7 @@ def test_a_whole_archive_runs_every_entry_it_can_and_names_the_others(tmp_path):
     assert verdicts == {"good": "proved", "real exponent": "not supported",
                         "engine lacks the rule": "not supported", "bad": "refuted"}
     assert code == 2 and len(err.strip().splitlines()) == 1 and "(and 1 more)" in err, err
+    assert err.count("real exponent") == 1, err  # named once, not again in front of the reason
     assert "1 of 4 models proved, 2 not supported" in out and re.search(r"mixed\.kyx:8:\d+: exponent", out)
     code, out, _ = run("list", str(archive), "--json")
     assert code == 0 and [d["expected"] for d in json.loads(out)] == ["proved", "not supported", "proved",

@@ -500,8 +500,8 @@ def cmd_prove(args: argparse.Namespace) -> int:
                 except ModelError as exc:  # one of several models: its row, and the others run
                     if len(theorems) == 1:
                         raise
-                    unsupported.append(Unsupported(theorem.name, str(exc)))
-                    show_unsupported(out, theorem.name, str(exc))
+                    unsupported.append(Unsupported(theorem.name, str(exc).removeprefix(f"{theorem.name}: ")))
+                    show_unsupported(out, theorem.name, unsupported[-1].reason)
                     docs.append(unsupported[-1].to_json())
                     continue
                 if args.cross_check:
@@ -694,8 +694,8 @@ def cmd_falsify(args: argparse.Namespace) -> int:
                 except ModelError as exc:  # one of several models: its row, and the others run
                     if len(theorems) == 1:
                         raise
-                    unsupported.append(Unsupported(theorem.name, str(exc)))
-                    show_unsupported(out, theorem.name, str(exc))
+                    unsupported.append(Unsupported(theorem.name, str(exc).removeprefix(f"{theorem.name}: ")))
+                    show_unsupported(out, theorem.name, unsupported[-1].reason)
                     docs.append(unsupported[-1].to_json())
                     continue
                 show_falsification(out, result, level)
