@@ -126,6 +126,22 @@ def test_a_division_inside_a_nested_program_is_checked_in_the_state_it_runs_in(p
     assert result.verdict != "proved"
 
 
+@pytest.mark.parametrize("problem, defined", [  # a third red team's class: each was proved
+    ("y = 0 -> (y/y = 1 | true)", False),  # y/y is evaluated first
+    ("x = 0 -> !(1/x > 0 & false)", False),
+    ("x = 0 -> [t := 0;] ([y := 1/x;] true -> true)", False),
+    ("y = 0 -> (true | y/y = 1)", True),  # never evaluated: the claim is fine
+    ("y = 1 -> (y/y = 1 | true)", True),
+])
+def test_a_constant_that_decides_a_connective_keeps_the_divisions_read_before_it(problem, defined):
+    """The formula constructors simplify `P | true` to true; the reader keeps the connective
+    as written when that would drop a division, so it is still checked where evaluated."""
+    result = prove(problem)
+    assert (result.verdict == "proved") == defined
+    if not defined:
+        assert result.ill_defined
+
+
 def test_a_test_that_blocks_every_iteration_is_not_skipped():
     # from x = 1 no iteration can run (?x > 5 fails), and x = 0 does not hold now: false
     result = prove("x = 1 -> <{?x > 5; x := 0;}*> x = 0")

@@ -11,6 +11,7 @@ from lark import Token, Tree
 
 from certiloop.models.kyx.roots import NotPolynomialInRoot, exact_root, never_negative, without_root
 from certiloop.models.kyx.syntax import BUILTINS, KyxError, Scope, _where
+from certiloop.models.lang.nesting import divides
 from certiloop.models.lang.programs import (
     ODE,
     Choice,
@@ -381,16 +382,18 @@ class Builder:
         return Not(self._bool(t.children[0], env))
 
     def e_conjunction(self, t, env):
-        return And(*(self._bool(c, env) for c in t.children))
+        return _as_written(And, "and", [self._bool(c, env) for c in t.children])
 
     def e_disjunction(self, t, env):
-        return Or(*(self._bool(c, env) for c in t.children))
+        return _as_written(Or, "or", [self._bool(c, env) for c in t.children])
 
     def e_implication(self, t, env):
-        return Implies(self._bool(t.children[0], env), self._bool(t.children[1], env))
+        left, right = t.children
+        return _as_written(Implies, "implies", [self._bool(left, env), self._bool(right, env)])
 
     def e_reverse_implies(self, t, env):
-        return Implies(self._bool(t.children[-1], env), self._bool(t.children[0], env))
+        left, right = t.children[-1], t.children[0]
+        return _as_written(Implies, "implies", [self._bool(left, env), self._bool(right, env)])
 
     def e_equiv(self, t, env):
         return Iff(self._bool(t.children[0], env), self._bool(t.children[1], env))
@@ -552,6 +555,17 @@ class Builder:
             for f in formulas:
                 out.append(self._bool(f, env))
         return out
+
+
+def _as_written(build, op: str, parts: list[Node]) -> Node:
+    """build(*parts), unless a constant decides it (`P | true`, `P & false`, `P -> true`) and
+    a part it drops divides: then the connective as written, so that the division is still
+    checked defined where it is evaluated (wd.py reads the parts left to right: in
+    `y/y = 1 | true` y/y is evaluated, in `true | y/y = 1` it is not)."""
+    built = build(*parts)
+    if built.op in ("true", "false") and any(p.op not in ("true", "false") and divides(p) for p in parts):
+        return Node(op, tuple(parts), BOOL)
+    return built
 
 
 def _sum(items) -> Node:
