@@ -148,9 +148,14 @@ def test_a_test_that_blocks_every_iteration_is_not_skipped():
     assert result.verdict != "proved"
 
 
+@pytest.mark.parametrize("problem", ["!<{x := x + 1;}*> x < 0", "(<{x := x + 1;}*> x >= 2) -> x >= 1"])
+def test_a_diamond_loop_in_a_negative_place_is_not_proved_when_false(problem):
+    # both false at x = -1 (x < 0 now; x reaches 2 but is not >= 1): read since negative places
+    # are supported (test_negative_loops.py), never proved
+    assert prove(problem).verdict != "proved"
+
+
 @pytest.mark.parametrize("problem, why", [
-    ("!<{x := x + 1;}*> x < 0", "negation"),
-    ("(<{x := x + 1;}*> x >= 2) -> x >= 1", "assumption"),
     ("x >= 0 -> <{x := x + 1;}*>[{x := x - 1;}*] x >= 0", "diamond's postcondition"),
     ("x >= 0 -> <{?<{x := x + 1;}*> x > 3; x := x + 1;}*> x >= 2", "formula of its program"),
 ])

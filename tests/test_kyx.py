@@ -173,7 +173,7 @@ def test_unsupported_constructs_are_refused_with_line_and_column():
         ('ArchiveEntry "a" Definitions Real f(Real x); End. Problem f(1) > 0 End. End.', "uninterpreted"),
         ('ArchiveEntry "a" Problem exp(2) > 0 End. End.', "`exp` is not supported"),
         ('ArchiveEntry "a" Problem 2^(1/3) > 1 End. End.', "exponent `1/3` is not supported"),
-        ('ArchiveEntry "a" Problem [{x:=x+1;}*]x>0 <-> x=1 End. End.', "loop inside"),
+        ('ArchiveEntry "a" Problem x>0 -> <{x:=x+1;}*>[{x:=x-1;}*]x>5 End. End.', "loop inside"),
         ('ArchiveEntry "a" Definitions Real c; End. Problem [c := 1;]c > 0 End. End.', "constant `c`"),
         ('ArchiveEntry "a" Definitions Real c = 2; End. Problem \\forall c c>0 End. End.', "quantify over"),
     ]:

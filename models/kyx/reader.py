@@ -104,7 +104,7 @@ def _has_loop(p: Program) -> bool:
 
 
 def _nested_loop(f: Node) -> bool:
-    if f.op in MODALITIES and _has_loop(f.payload):
+    if f.op in MODALITIES and (_has_loop(f.payload) or tests_have_loops(f.payload)):
         return True
     if f.op in MODALITIES:
         return _nested_loop(f.args[0])
@@ -124,7 +124,8 @@ def split_problem(f: Node, exact: bool = False,
     assumptions: list[Node] = []
     parts: list[Program] = []
     while True:
-        if f.op == "implies" and not parts:
+        if f.op == "implies" and not parts and not _nested_loop(f.args[0]):
+            # (a loop on the left stays in the guarantee, where the core may assume it bounded)
             assumptions.append(f.args[0])
             f = f.args[1]
         elif f.op == "implies" and parts and f.args[0].op not in MODALITIES and not _modal(f.args[0]):

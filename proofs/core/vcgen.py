@@ -34,7 +34,7 @@ import re
 from dataclasses import dataclass, field
 from typing import Callable
 
-from certiloop.models.lang.nesting import divides, has_loop_modality, loop_nesting_problem
+from certiloop.models.lang.nesting import divides, has_loop_modality, loop_nesting_problem, positive_form
 from certiloop.models.lang.programs import (
     ODE,
     Assign,
@@ -58,13 +58,13 @@ from certiloop.models.lang.terms import (
     ModelError,
     Node,
     Not,
-    Or,
     Var,
     free_vars,
     store,
     substitute,
 )
 from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.core.bounded import bounded
 from certiloop.proofs.core.odes import (
     OdeStep,
     atom_premise,
@@ -186,7 +186,7 @@ class VCGen:
         return self.obligations
 
     def postcondition(self, st: State) -> None:
-        guarantee = self.theorem.guarantee
+        guarantee = positive_form(self.theorem.guarantee, executed)
         if executed(guarantee):
             if why := loop_nesting_problem(guarantee):
                 raise ModelError(f"the guarantee holds {why}: not supported")
@@ -215,13 +215,14 @@ class VCGen:
         elif op == "implies":
             self.establish(self._assumed(st, goal.args[0]), goal.args[1])
         elif op == "or":
-            inside = [n for n, a in enumerate(goal.args) if executed(a)]
-            later = goal.args[inside[0]:] if inside[0] < len(goal.args) - 1 else ()
-            if len(inside) > 1 or any(divides(a) for a in later):
-                raise ModelError(f"cannot take apart the disjunction `{goal}` (two parts to execute, or a "
-                                 "division after the part to execute)")
-            others = [a for n, a in enumerate(goal.args) if n != inside[0]]
-            self.establish(self._assumed(st, Not(Or(*others))), goal.args[inside[0]])
+            proved = [n for n, a in enumerate(goal.args) if executed(a)][-1]  # the others: assumed false
+            later = goal.args[proved:] if proved < len(goal.args) - 1 else ()
+            if any(divides(a) for a in later):
+                raise ModelError(f"cannot take apart the disjunction `{goal}` (a division after the part "
+                                 "to execute)")
+            others = [a for n, a in enumerate(goal.args) if n != proved]
+            assumed = others[0] if len(others) == 1 else Node("or", tuple(others), BOOL)  # as written
+            self.establish(self._assumed(st, Not(assumed)), goal.args[proved])
         elif op == "forall":
             self.names.count += 1
             event = self.names.count
@@ -249,8 +250,13 @@ class VCGen:
             self.emit(st, goal, "postcondition")
 
     def _assumed(self, st: State, fact: Node) -> State:
+        """st with fact assumed; a loop (or an unsolved flow) in its modalities bounded by
+        bounded.py to a weaker fact, which is all a proof may use (rule "unrolled")."""
         self.require_defined(st, "the guarantee", fact, annotation=True)
-        return st.assume(st.value(expand_modalities(fact, self.names, positive=False)))
+        weaker = bounded(fact, DIAMOND_ITERATIONS, solvable)
+        if weaker is not fact:
+            st = st.via(f"assumed with at most {DIAMOND_ITERATIONS} iterations", "unrolled")
+        return st.assume(st.value(expand_modalities(weaker, self.names, positive=False)))
 
     def _exists(self, st: State, goal: Node) -> None:
         """∃R: the body at the theorem's witness terms, each evaluated in this state (so a
