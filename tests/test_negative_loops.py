@@ -75,16 +75,19 @@ CLAIMS = [
     # false
     (f"[{UP}] x > 0 <-> x = 1", lambda x0: all(v > 0 for v in reach(x0, 1)) == (x0 == 1), False),
     (f"x = 0 -> !<{UP}> x > 2", lambda x0: x0 != 0 or not any(v > 2 for v in reach(x0, 1)), False),
-    (f"x = 0 -> ([{UP}] x >= 0 -> false)", lambda x0: x0 != 0 or not all(v >= 0 for v in reach(x0, 1)), False),
+    (f"x = 0 -> ([{UP}] x >= 0 -> false)",
+     lambda x0: x0 != 0 or not all(v >= 0 for v in reach(x0, 1)), False),
     (f"[{UP}] x >= 0 -> [{DOWN}] x >= 0",
      lambda x0: not all(v >= 0 for v in reach(x0, 1)) or all(v >= 0 for v in reach(x0, -1)), False),
     (f"x = 0 -> ([{UP}] x <= 2 | [{DOWN}] x >= -2)",
      lambda x0: x0 != 0 or all(v <= 2 for v in reach(x0, 1)) or all(v >= -2 for v in reach(x0, -1)), False),
     # mutant: assuming <a*>P as its first runs <a^{<=3}>P (stronger than the claim gives)
-    (f"x = 0 -> (<{UP}> x >= 10 -> x > 5)", lambda x0: x0 != 0 or not any(v >= 10 for v in reach(x0, 1)), False),
+    (f"x = 0 -> (<{UP}> x >= 10 -> x > 5)",
+     lambda x0: x0 != 0 or not any(v >= 10 for v in reach(x0, 1)), False),
     # mutants: !([a*]P) assumed as !([a^{<=3}]P), or as !true
     (f"x = 0 -> (!([{UP}] x <= 3) -> x > 5)", lambda x0: x0 != 0 or all(v <= 3 for v in reach(x0, 1)), False),
-    (f"x = 0 -> (!([{UP}] x <= 100) -> x > 5)", lambda x0: x0 != 0 or all(v <= 100 for v in reach(x0, 1)), False),
+    (f"x = 0 -> (!([{UP}] x <= 100) -> x > 5)",
+     lambda x0: x0 != 0 or all(v <= 100 for v in reach(x0, 1)), False),
 ]
 
 
