@@ -9,7 +9,8 @@ from typing import Any
 
 from lark import Token, Tree
 
-from certiloop.models.kyx.roots import NotPolynomialInRoot, exact_root, never_negative, without_root
+from certiloop.models.kyx.lifting import NotDifferentiable, moves, rate
+from certiloop.models.kyx.roots import NotPolynomialInRoot, exact_root, never_negative, number, without_root
 from certiloop.models.kyx.syntax import BUILTINS, KyxError, Scope, _where
 from certiloop.models.lang.nesting import divides
 from certiloop.models.lang.programs import (
@@ -17,6 +18,7 @@ from certiloop.models.lang.programs import (
     Choice,
     Loop,
     Program,
+    Seq,
     Test,
     assign,
     children,
@@ -71,6 +73,16 @@ class Builder:
         self.made: set[str] = set()  # names made up here (fresh_variable)
         self.expanding: list[str] = []
         self.olds: dict[str, Node] | None = None  # in loop and ODE annotations: old(e) -> its variable
+        # square roots in ODE right-hand sides (lifting.py): while one is read, its variables;
+        # the roots lifted there (e, s, moved by the flow); side conditions `Q -> e > 0`
+        self.flow: frozenset[str] | None = None
+        self.lifted: list[tuple[Node, Node, bool]] = []
+        self.lift_conditions: list[tuple[str, Node]] = []
+        # where a lifted root written again means its variable: (e, s, binders around it then,
+        # programs being read then: inside a program read later, statements may write e)
+        self.aliases: list[tuple[Node, Node, int, int]] = []
+        self.programs = 0  # programs being read around what is being built
+        self.lifted_flows: dict[int, tuple[ODE, list[tuple[Node, Node, bool]]]] = {}
 
     def old(self, e: Node) -> Node:
         """old(e) in a loop's or an ODE's annotation: e's value before it, kept in a fresh variable."""
@@ -329,12 +341,18 @@ class Builder:
         if any(m in self.cases or m in self.named_roots for m in free_vars(e)):
             raise self.fail(where, f"the square root of `{self.shown(e)}`, which holds abs/min/max or "
                             "another root, is not supported")
+        if (alias := self._alias(e)) is not None:
+            return alias
+        if (value := number(e)) is not None:
+            e = const(value)
         if e.op == "const":
             if e.payload < 0:
                 raise self.fail(where, f"the square root of the negative number {e.payload}")
             exact = exact_root(e.payload)
             if exact is not None:
                 return const(exact)
+        if self.flow is not None and (e.op == "const" or moves(e, self.flow) or never_negative(e)):
+            return self._lift(e)  # in an ODE's right-hand side
         if never_negative(e):
             marker = f"sqrt@{len(self.cases) + 1}"
             self.cases[marker] = ("sqrt", (e,))
@@ -345,6 +363,24 @@ class Builder:
         named = self.fresh_variable("sqrt")
         self.named_roots[named.payload] = (e, where)
         return named
+
+    def _alias(self, e: Node) -> Node | None:
+        """The variable a root of e was lifted to, where it still means sqrt(e): right after
+        or along its flow, where no quantifier or program since has bound e's symbols."""
+        for known, s, depth, programs in reversed(self.aliases):
+            if known.same(e) and programs == self.programs and not any(
+                    set(free_vars(e)) & b for b in self.binders[depth:]):
+                return s
+        return None
+
+    def _lift(self, e: Node) -> Node:
+        """sqrt(e) in the right-hand side being read: a variable of the flow (lifting.py)."""
+        for known, s, _ in self.lifted:
+            if known.same(e):
+                return s
+        s = self.fresh_variable("sqrt")
+        self.lifted.append((e, s, moves(e, self.flow)))
+        return s
 
     def fresh_variable(self, base: str) -> Node:
         """A real symbol named after `base` that the entry does not use."""
@@ -421,9 +457,15 @@ class Builder:
     def _modality(self, t, env) -> tuple[Program, Node]:
         program = self.program(t.children[0], env)
         self.binders.append(frozenset(written(program)))
+        last = _last_statement(program)
+        lifted = self.lifted_flows.get(id(last), (None, []))
+        aliases = [(e, s, len(self.binders), self.programs) for e, s, _ in lifted[1]]
+        aliases = aliases if lifted[0] is last else []
+        self.aliases.extend(aliases)  # the post is evaluated right after the flow
         try:
             return program, self._bool(t.children[1], env)
         finally:
+            del self.aliases[len(self.aliases) - len(aliases):]
             self.binders.pop()
 
     # ---- programs
@@ -431,7 +473,11 @@ class Builder:
         rule = getattr(self, f"p_{t.data}", None)
         if rule is None:
             raise self.fail(t, f"program `{t.data}` is not supported")
-        return rule(t, env)
+        self.programs += 1
+        try:
+            return rule(t, env)
+        finally:
+            self.programs -= 1
 
     def p_choice(self, t, env):
         alternatives = [self.program(c, env) for c in t.children]
@@ -518,25 +564,60 @@ class Builder:
         domain_tree = rest[0] if rest and rest[0].data != "annotation" else None
         notes = rest[1:] if domain_tree is not None else rest
         eqs: list[tuple[Node, Node]] = []
-        for eq in eqs_tree.children:
-            lhs, rhs = eq.children
-            value = self._num(rhs, env)
-            bad = [m for m in free_vars(value) if m in self.cases or m in self.primes.values()]
-            if bad:
-                raise self.fail(rhs, "abs/min/max, the square root of a state variable or a differential "
-                                "symbol in an ODE right-hand side is not supported")
-            eqs.append((Real(str(lhs)[:-1]), value))
+        outer = self.flow, self.lifted
+        self.flow, self.lifted = frozenset(str(eq.children[0])[:-1] for eq in eqs_tree.children), []
+        try:
+            for eq in eqs_tree.children:
+                lhs, rhs = eq.children
+                value = self._num(rhs, env)
+                bad = [m for m in free_vars(value) if m in self.cases or m in self.primes.values()]
+                if bad:
+                    raise self.fail(rhs, "abs/min/max or a differential symbol in an ODE right-hand side is "
+                                    "not supported")
+                eqs.append((Real(str(lhs)[:-1]), value))
+            lifted = self.lifted
+        finally:
+            self.flow, self.lifted = outer
         domain = TRUE if domain_tree is None else self._bool(domain_tree, env)
-        invariants, olds = self._annotations_with_olds(notes, env)
+        self.aliases.extend((e, s, len(self.binders), self.programs) for e, s, _ in lifted)  # along the flow
+        try:
+            invariants, olds = self._annotations_with_olds(notes, env)
+        finally:
+            del self.aliases[len(self.aliases) - len(lifted):]
         # along the flow x' equals its right-hand side (only primes already in use matter)
         flow = {self.primes[x.payload]: f for x, f in eqs if x.payload in self.primes}
         domain, invariants = substitute(domain, flow), [substitute(i, flow) for i in invariants]
+        prefix, eqs, domain = self._lifted_flow(lifted, eqs, domain, t)
         try:
             system = ode(eqs, domain, invariants=invariants)
         except ModelError as exc:
             raise self.fail(t, str(exc)) from None
+        if lifted:
+            self.lifted_flows[id(system)] = (system, lifted)
         # old(e): remember e just before the flow
-        return seq(*(self._assign(Real(n), e, t) for n, e in olds.items()), system) if olds else system
+        return seq(*(self._assign(Real(n), e, t) for n, e in olds.items()), *prefix, system)
+
+    def _lifted_flow(self, lifted, eqs, domain, where):
+        """The statements that start each lifted root, the flow's equations and domain with
+        them (lifting.py), and the side condition `domain -> e > 0` of each moving root."""
+        prefix: list[Program] = []
+        rates = {x.payload: f for x, f in eqs}
+        extra, inside = [], []
+        for e, s, moving in lifted:
+            pinned = And(s > 0 if moving else s >= 0, cmp("==", s * s, e))
+            prefix += [havoc(s), test(pinned)]
+            if not moving:
+                continue
+            try:
+                speed = rate(e, rates)
+            except NotDifferentiable as exc:
+                raise self.fail(where, f"the square root of `{self.shown(e)}` in an ODE: cannot "
+                                f"differentiate {exc}") from None
+            extra.append((s, div(speed, 2 * s)))
+            inside.append(pinned)
+            self.lift_conditions.append((f"the flow keeps `{self.shown(e)}` > 0 (its square root is lifted)",
+                                         Implies(domain, e > 0)))
+        return prefix, eqs + extra, And(domain, *inside) if inside else domain
 
     def _annotations_with_olds(self, notes: list[Tree], env) -> tuple[list[Node], dict[str, Node]]:
         """A loop's or an ODE's annotations, and the `old(e)` they use: fresh name -> e."""
@@ -566,6 +647,12 @@ def _as_written(build, op: str, parts: list[Node]) -> Node:
     if built.op in ("true", "false") and any(p.op not in ("true", "false") and divides(p) for p in parts):
         return Node(op, tuple(parts), BOOL)
     return built
+
+
+def _last_statement(p: Program) -> Program:
+    while isinstance(p, Seq) and p.parts:
+        p = p.parts[-1]
+    return p
 
 
 def _sum(items) -> Node:

@@ -291,7 +291,7 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
                        for k, v in meta.get("abbreviations", {}).items()},
         scenarios=tuple(_rename(_meta_formula(s, scope, source), names) for s in meta.get("scenarios", [])),
         well_defined=root_conditions,
-        defined_if=guarded_roots,
+        defined_if=guarded_roots + tuple((what, _rename(c, names)) for what, c in builder.lift_conditions),
     )
     return theorem
 

@@ -27,6 +27,31 @@ def exact_root(c: Fraction) -> Fraction | None:
     return Fraction(isqrt(p), isqrt(q))
 
 
+def number(e: Node) -> Fraction | None:
+    """The value of a term built from numbers alone (`3.986*10^14/(42164*10^3)^3`), or None
+    (a symbol, or a division by 0)."""
+    op = e.op
+    if op == "const":
+        return e.payload
+    values = [number(a) for a in e.args]
+    if not values or any(v is None for v in values):
+        return None
+    if op == "+":
+        return sum(values, Fraction(0))
+    if op == "neg":
+        return -values[0]
+    if op == "*":
+        out = Fraction(1)
+        for v in values:
+            out *= v
+        return out
+    if op == "/":
+        return None if values[1] == 0 else values[0] / values[1]
+    if op == "^" and isinstance(e.payload, int) and (e.payload >= 0 or values[0] != 0):
+        return values[0] ** e.payload
+    return None
+
+
 def never_negative(e: Node) -> bool:
     """e >= 0 everywhere, by its shape: constants >= 0, even powers, x*x, and sums, products
     and quotients by positive numbers of such. Not `1/x^2`: a comparison's sign condition

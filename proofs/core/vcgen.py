@@ -68,7 +68,6 @@ from certiloop.proofs.core.bounded import bounded
 from certiloop.proofs.core.odes import (
     OdeStep,
     atom_premise,
-    conjuncts,
     default_chain,
     holds_along,
     polynomial_solution,
@@ -403,15 +402,13 @@ class VCGen:
     def _ode_cuts(self, p: ODE, chain: tuple[OdeStep, ...], st: State, k: Callable[[State], None]) -> None:
         """dC chain: each link holds initially (where the domain does: a flow starts inside
         it) and its rule's premise holds inside the domain, assuming the earlier links only.
-        A link that divides is first shown defined there, assuming the same links: a plan may
-        have dropped an annotation that another one's denominator relied on."""
-        annotated = {a.key for inv in p.invariants for a in conjuncts(inv)}
+        A link that divides is first shown defined there, assuming the same links (so its
+        denominator is nonzero all along the flow, where the link is differentiable): a plan
+        may have dropped an annotation that another one's denominator relied on."""
         after = self.havoc(st, {v.payload: v for v in p.variables}, "during ODE")
         start = st.assume(st.value(p.domain))
         known = [p.domain]
         for n, step in enumerate(chain, 1):
-            if step.atom.key not in annotated and has_division(step.atom):
-                raise ValueError(f"planned invariant `{step.atom}` divides by a term: not checked defined")
             if has_division(step.atom):
                 inside = after.assume(*(after.value(f) for f in known)).at(f"ODE {step.method} {n}")
                 # kind safety, not defined: an ill-defined annotation is the proof's failure,

@@ -105,9 +105,9 @@ def goals(f: Node) -> Node:
 
 
 def _usable(atom: Node, ode: ODE) -> bool:
-    """An atom the core can take as a link: a comparison of arithmetic terms, no division
-    by a term, and a derivative it can compute."""
-    if atom.op != "cmp" or has_division(atom) or not atom.args[0].sort.is_numeric:
+    """An atom the core can take as a link: a comparison of arithmetic terms with a
+    derivative it can compute (a division is checked defined along the flow by the core)."""
+    if atom.op != "cmp" or not atom.args[0].sort.is_numeric:
         return False
     try:
         atom_premise(atom, ode, "dI")

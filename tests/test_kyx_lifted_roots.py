@@ -1,0 +1,162 @@
+"""Square roots in an ODE's right-hand side (models/kyx/lifting.py): each becomes a variable
+of the flow, with the side condition that the domain keeps its argument positive.
+
+Every verdict has an independent witness: scipy integrates the ORIGINAL flow, with numpy's
+square root, never the lifted one certiloop reasons about, or a closed-form solution checks
+it by hand. Each false twin would be proved by the mutant of the rule it targets (named at
+the test), which was run to make sure."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from certiloop.models.kyx import KyxError, read_entries
+from certiloop.models.lang.programs import ODE, Havoc, Test
+from certiloop.proofs.engine import Prover
+
+
+def entry(problem: str, variables: str = "Real x, y, v, w, t;", definitions: str = ""):
+    text = (f'ArchiveEntry "e" {definitions} ProgramVariables {variables} End. '
+            f'Problem {problem} End. End.')
+    (e,) = read_entries(text)
+    if e.error:
+        raise KyxError(e.error)
+    return e.theorem
+
+
+def prove(problem: str, **kw):
+    with Prover(jobs=1) as p:
+        return p.prove(entry(problem, **kw))
+
+
+KEPLER_FLOW = "{x'=v, v'=-x/(x^2+y^2)^(3/2), y'=w, w'=-y/(x^2+y^2)^(3/2) & x != 0 | y != 0}"
+ENERGY = "(v^2+w^2)/2 - 1/(x^2+y^2)^(1/2)"
+
+
+def kepler(x, y, v, w):
+    r3 = (x * x + y * y) ** 1.5
+    return [v, w, -x / r3, -y / r3]
+
+
+def energy(x, y, v, w):
+    return (v * v + w * w) / 2 - 1 / math.sqrt(x * x + y * y)
+
+
+def test_keplers_energy_is_proved_and_scipy_sees_it_conserved():
+    result = prove(f"x^2 + y^2 > 0 & {ENERGY} = E -> [{KEPLER_FLOW}] {ENERGY} = E",
+                   definitions="Definitions Real E; End.")
+    assert result.verdict == "proved"
+    rng = np.random.default_rng(7)
+    for _ in range(5):  # bound orbits from random starts: the energy stays put
+        x0, y0 = rng.uniform(0.5, 2.0), rng.uniform(-1.0, 1.0)
+        v0, w0 = rng.uniform(-0.3, 0.3), rng.uniform(0.3, 0.9)
+        sol = solve_ivp(lambda _t, z: kepler(*z), (0, 5), [x0, y0, v0, w0], rtol=1e-10, atol=1e-12)
+        e0 = energy(x0, y0, v0, w0)
+        assert max(abs(energy(*z) - e0) for z in sol.y.T) < 1e-6
+
+
+def test_the_wrong_energy_is_not_proved_and_scipy_shows_it_changes():
+    wrong = "(v^2+w^2)/2 - 2/(x^2+y^2)^(1/2)"
+    result = prove(f"x^2 + y^2 > 0 & {wrong} = E -> [{KEPLER_FLOW}] {wrong} = E",
+                   definitions="Definitions Real E; End.")
+    assert result.verdict != "proved"
+    sol = solve_ivp(lambda _t, z: kepler(*z), (0, 1), [1.0, 0.0, 0.0, 1.2], rtol=1e-10)
+    values = [(v * v + w * w) / 2 - 2 / math.hypot(x, y) for x, y, v, w in sol.y.T]
+    assert max(values) - min(values) > 1e-2
+
+
+def test_keplers_claim_as_keymaera_x_writes_it_divides_by_zero_in_its_assumption():
+    # with no x^2 + y^2 > 0 first, the assumption's 1/sqrt(x^2+y^2) is evaluated at the origin
+    result = prove(f"{ENERGY} = E -> [{KEPLER_FLOW}] {ENERGY} = E", definitions="Definitions Real E; End.")
+    assert result.verdict != "proved" and result.ill_defined
+
+
+def test_the_lifted_program_pins_the_root_and_adds_its_equation():
+    theorem = entry("x >= 1 -> [{x' = x^(1/2) & x > 0}] x >= 1", variables="Real x;")
+    havoc, pin, flow = theorem.program.parts
+    assert isinstance(havoc, Havoc) and isinstance(pin, Test) and isinstance(flow, ODE)
+    s = havoc.target.payload
+    assert [str(v) for v, _ in flow.eqs] == ["x", s]
+    assert s in str(flow.domain) and f"{s} > 0" in str(pin.cond)
+    (what, condition), = theorem.defined_if  # the side condition: the domain keeps x > 0
+    assert "`x` > 0" in what and condition.op == "implies" and str(condition.args[1]) == "x > 0"
+
+
+def test_a_growing_root_flow_is_proved():
+    # sqrt(x) = sqrt(x0) + t/2 grows: x stays >= 1
+    assert prove("x >= 1 -> [{x' = x^(1/2) & x > 0}] x >= 1", variables="Real x;").verdict == "proved"
+
+
+def test_a_shrinking_root_flow_is_refuted_with_the_closed_form_as_witness():
+    # x' = -sqrt(x), x(0) = 1: x(t) = (1 - t/2)^2, so x(1) = 1/4 < 1/2 while x > 0 on [0, 1]
+    result = prove("x = 1 -> [{x' = -(x^(1/2)) & x > 0}] x >= 1/2", variables="Real x;")
+    assert result.verdict == "refuted"
+    assert (1 - 1 / 2) ** 2 < 0.5
+
+
+def test_a_flow_that_reaches_the_roots_zero_is_not_proved():
+    # x(t) = (1 - t/2)^2 reaches 0 at t = 2 and may stay there: x > 0 is false. The lifted
+    # flow keeps s > 0, so without the side condition `true -> x > 0` (mutant: dropped) it
+    # would be proved
+    sol = (1 - 2 / 2) ** 2
+    assert sol == 0
+    result = prove("x = 1 -> [{x' = -(x^(1/2))}] x > 0", variables="Real x;")
+    assert result.verdict != "proved" and not result.ill_defined
+
+
+def test_a_root_written_again_after_a_write_is_not_the_lifted_one():
+    # after x := 0 the test reads sqrt(0^2 + 1) = 1 <= 1: it passes and `false` must hold, so
+    # the claim is false. Read as the flow's lifted root (mutant: aliases inside a program),
+    # the test would see sqrt(x^2 + 1) >= sqrt(2) at the flow's end and the claim be proved
+    result = prove("x = 1 -> [{x'=(x^2+1)^(1/2)}][x := 0; ?(x^2+1)^(1/2) <= 1;] false", variables="Real x;")
+    assert result.verdict != "proved"
+
+
+def test_a_second_flow_lifts_its_own_root():
+    # the second flow moves x, so its root is its own variable. Read as the first flow's
+    # (a constant there; mutant: aliases inside a program), x would grow linearly and
+    # x <= y + sqrt(y^2+1)*t be proved; scipy shows x = sinh(t) from 0 beats t
+    claim = ("x = 0 & t = 0 -> [{x'=(x^2+1)^(1/2) & x <= 0}][y := x; t := 0;]"
+             "[{x'=(x^2+1)^(1/2), t'=1}] x <= y + (y^2+1)^(1/2)*t")
+    assert prove(claim).verdict != "proved"
+    sol = solve_ivp(lambda _t, z: [math.sqrt(z[0] ** 2 + 1)], (0, 1), [0.0], rtol=1e-10)
+    assert sol.y[0, -1] > 1.0 + 0.1 and abs(sol.y[0, -1] - math.sinh(1)) < 1e-6
+
+
+def test_a_planned_invariant_that_divides_is_checked_defined_along_the_flow():
+    # x' = -x^2 - 1 takes x from 1 through 0: 1/x > 0 is false (and undefined at 0). Its
+    # dI premise holds wherever x != 0, so a plan that skipped the check would prove it
+    result = prove("x = 1 -> [{x' = -x^2 - 1}] 1/x > 0", variables="Real x;")
+    assert result.verdict != "proved"
+    sol = solve_ivp(lambda _t, z: [-z[0] ** 2 - 1], (0, 1), [1.0], rtol=1e-10)
+    assert sol.y[0, -1] < 0
+
+
+def test_a_constant_root_in_a_flow_is_a_constant():
+    # sqrt(2) is no number certiloop writes: x grows at rate sqrt(2) > 1.4
+    result = prove("x = 0 & t = 0 -> [{x' = 2^(1/2), t' = 1}] x >= 7/5*t", variables="Real x, t;")
+    assert result.verdict == "proved"
+    result = prove("x = 0 & t = 0 -> [{x' = 2^(1/2), t' = 1}] x >= 3/2*t", variables="Real x, t;")
+    assert result.verdict == "refuted"
+    assert 1.4 < math.sqrt(2) < 1.5
+
+
+def test_a_constant_expression_under_a_root_is_folded():
+    # 3*10^2/(2*10^1)^2 is 3/4: a constant of the flow pinned by s^2 = 3/4 (no side condition)
+    claim = "x = 0 -> [{x' = (3*10^2/(2*10^1)^2)^(1/2)}] x >= 0"
+    theorem = entry(claim, variables="Real x;")
+    havoc, pin, flow = theorem.program.parts
+    assert "3/4" in str(pin.cond) and len(flow.eqs) == 1 and not theorem.defined_if
+    assert prove(claim, variables="Real x;").verdict == "proved"
+
+
+@pytest.mark.parametrize("problem, why", [
+    ("x >= 0 -> [{x' = abs(x)}] x >= 0", "abs/min/max"),
+])
+def test_what_is_still_refused_in_a_right_hand_side(problem, why):
+    with pytest.raises(KyxError, match=why):
+        entry(problem, variables="Real x;")
