@@ -156,7 +156,22 @@ def test_a_constant_expression_under_a_root_is_folded():
 
 @pytest.mark.parametrize("problem, why", [
     ("x >= 0 -> [{x' = abs(x)}] x >= 0", "abs/min/max"),
+    # a red team's findings: the outer root's rate needs the inner one's (x = (1 + t/2)^2 from
+    # x = 1 under x' = sqrt(sqrt(x)^2), so x(2) = 4 > 3, and this was proved); a differential
+    # symbol hidden under a root was pinned to its value before the flow; a negative power of
+    # a number that folds to 0 crashed the ODE solver
+    ("x = 1 & t = 0 -> [{x' = sqrt(sqrt(x)^2), t' = 1 & x > 0}] x <= 1 + t", "holds another root"),
+    ("x = 1 & t = 0 -> [{x' = sqrt(x + 1 + sqrt(t)^2), t' = 1 & x > 0}] x >= 1", "holds another root"),
+    ("x = 0 & t = 0 -> [{x' = sqrt(y'^2 + 3), y' = 1, t' = 1}] x = 2*t", "differential symbol"),
+    ("x = 0 -> [{x' = (1-1)^(-3/2)}] x >= 0", "division by the constant 0"),
+    ("x = 0 -> [{x' = 1/(1-1)}] x >= 0", "division by the constant 0"),
 ])
 def test_what_is_still_refused_in_a_right_hand_side(problem, why):
     with pytest.raises(KyxError, match=why):
-        entry(problem, variables="Real x;")
+        entry(problem, variables="Real x, y, t;")
+
+
+def test_a_flow_dividing_by_a_zero_term_is_ill_defined_not_a_crash():
+    # 1/(0*x): sympy's solution is complex infinity, which used to fail an internal check
+    result = prove("x = 0 -> [{x' = 1/(0*x)}] x >= 0", variables="Real x;")
+    assert result.ill_defined or result.verdict == "unknown"

@@ -295,7 +295,7 @@ class Builder:
                     raise self.fail(rhs, "division by the constant 0")
                 out = const(out.payload / r.payload)
             else:
-                if r.op == "const" and r.payload == 0:
+                if number(r) == 0:
                     raise self.fail(rhs, "division by the constant 0")
                 out = div(out, r)
         return out
@@ -307,7 +307,7 @@ class Builder:
             exponent = const(exponent.args[0].payload ** exponent.payload)
         if exponent.op == "const" and exponent.payload.denominator == 2:  # x^(k/2) = x^((k-1)/2)*sqrt(x)
             k = exponent.payload.numerator
-            if k < 0 and base.op == "const" and base.payload == 0:
+            if k < 0 and number(base) == 0:
                 raise self.fail(t, "division by the constant 0 (a negative power of 0)")
             whole = self.root(base, t)
             if abs(k) > 1:
@@ -320,10 +320,10 @@ class Builder:
             return base ** int(exponent.payload)
         # x^-n is 1/x^n, a division: defined only where x != 0, which the claim's
         # well-definedness obligations check like any other division (10^-10 is a number)
-        if base.op == "const" and base.payload == 0:
+        if (value := number(base)) == 0:
             raise self.fail(t, "division by the constant 0 (a negative power of 0)")
-        if base.op == "const":
-            return const(1 / base.payload ** int(-exponent.payload))
+        if value is not None:
+            return const(1 / value ** int(-exponent.payload))
         power = -int(exponent.payload)
         return div(const(1), base if power == 1 else base ** power)
 
@@ -352,7 +352,7 @@ class Builder:
             if exact is not None:
                 return const(exact)
         if self.flow is not None and (e.op == "const" or moves(e, self.flow) or never_negative(e)):
-            return self._lift(e)  # in an ODE's right-hand side
+            return self._lift(e, where)  # in an ODE's right-hand side
         if never_negative(e):
             marker = f"sqrt@{len(self.cases) + 1}"
             self.cases[marker] = ("sqrt", (e,))
@@ -373,11 +373,17 @@ class Builder:
                 return s
         return None
 
-    def _lift(self, e: Node) -> Node:
+    def _lift(self, e: Node, where) -> Node:
         """sqrt(e) in the right-hand side being read: a variable of the flow (lifting.py)."""
         for known, s, _ in self.lifted:
             if known.same(e):
                 return s
+        mentioned = set(free_vars(e))
+        if mentioned & {s.payload for _, s, _ in self.lifted}:  # its rate would need the inner one's
+            raise self.fail(where, f"the square root of `{self.shown(e)}`, which holds another root, in an "
+                            "ODE's right-hand side is not supported")
+        if mentioned & set(self.primes.values()):
+            raise self.fail(where, "a differential symbol in an ODE right-hand side is not supported")
         s = self.fresh_variable("sqrt")
         self.lifted.append((e, s, moves(e, self.flow)))
         return s

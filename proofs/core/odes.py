@@ -56,6 +56,8 @@ def _solve(ode: ODE, s: Node) -> dict[str, Node] | None:
     rhs = {v.name: to_sympy(f, table) for v, f in ode.eqs}
     if ssym in set().union(*(e.free_symbols for e in rhs.values())):
         return None  # the flow's own clock symbol cannot appear in the model
+    if any(e.has(sympy.zoo, sympy.nan, sympy.oo) for e in rhs.values()):
+        return None  # a division by 0 (1/(0*x)): no solution; the definedness check says why
     solved: dict[str, sympy.Expr] = {}
     pending = [v.name for v in ode.variables]  # the model's order: deterministic
     while pending:
