@@ -42,7 +42,7 @@ def reach(x0, c):
 
 
 def entry(problem: str):
-    (e,) = read_entries(f'ArchiveEntry "e" ProgramVariables Real x; End. Problem {problem} End. End.')
+    (e,) = read_entries(f'ArchiveEntry "e" ProgramVariables Real x, y, z; End. Problem {problem} End. End.')
     if e.error:
         raise KyxError(e.error)
     return e.theorem
@@ -114,6 +114,39 @@ def test_a_false_negated_diamond_is_refuted_at_a_state():
     with Prover(jobs=1) as p:
         result = p.prove(entry(f"x = 0 -> !<{UP}> x > 2"))
     assert result.verdict == "refuted"
+
+
+# a red team's findings: each claim evaluates a division by 0 on some run, or at some value of
+# its \\exists, so it must not be proved (it was, through the runs or the value the proof kept)
+@pytest.mark.parametrize("claim", [
+    "x = 0 & y = 0 -> <{y:=y+1;}*>(y < 4 | 1/x > 0)",  # the 4th iteration reads 1/x
+    "x = 0 & y = 0 -> <{y:=y+1; z:=1/(y-5);}*>y = 3",  # the 5th divides by 0
+    "x = 0 & y = 0 -> ![{y:=y+1;}*](y>=4 & 1/x>0)",
+    "\\exists y [{x:=x+1;}*](y=1 | 1/(y-2)>0)",  # y = 2 divides by 0; the proof tried y = 1
+])
+def test_every_run_and_every_value_is_checked_defined(claim):
+    result = verdict(claim)
+    assert result != "proved"
+
+
+def test_nested_loops_too_large_to_unroll_are_not_tried():
+    from certiloop.proofs.core.bounded import MAX_PATHS
+    from certiloop.proofs.core.wp import unrolled_paths
+
+    nest = entry("x=0 -> <{{{{x:=x+1;}++{x:=x-1;}}*}*}*>x=27").guarantee.payload
+    assert unrolled_paths(nest, 3) > MAX_PATHS  # about 10^10 paths: it used to run for ever
+    assert verdict("x=0 -> <{{{{x:=x+1;}++{x:=x-1;}}*}*}*>x=27") == "unknown"
+    assert verdict("x=0 -> ([{{{{x:=x+1;}++{x:=x-1;}}*}*}*]x>100 -> false)") != "proved"
+
+
+@pytest.mark.parametrize("claim", [
+    # at x = 0: the first two disjuncts are false, the third true
+    "x = 0 -> ([{x:=x+1;}*] x <= 1 | x > 5 | [{x:=x+2;}*] x >= 0)",
+    "x = 0 -> (([{x:=x+1;}*] x >= 0 -> x >= 1) -> x = 0)",
+    "x = 0 -> !(<{x:=x+1;}*> x >= 2 <-> x = 1)",  # true <-> false
+])
+def test_loops_deeper_in_a_condition_are_read(claim):
+    assert verdict(claim) == "proved"
 
 
 @pytest.mark.parametrize("problem, why", [

@@ -11,6 +11,8 @@ gives, never more, and a proof stays a proof.
                            <a*>P, [flow]P, <flow>P  become  true
   under a negation         <a*>P  becomes  <a^{<=k}>P   (fewer runs: it implies <a*>P)
   (stronger):              [a*]P, [flow]P, <flow>P  become  false
+An unrolling with more than MAX_PATHS paths is not built: the modality becomes true (assumed)
+or false (under a negation), which only weakens what a proof may use.
 """
 
 from __future__ import annotations
@@ -20,9 +22,16 @@ from typing import Callable
 from certiloop.models.lang.nesting import has_loop_modality
 from certiloop.models.lang.programs import ODE, Program, children, is_loop_free
 from certiloop.models.lang.terms import BOOL, FALSE, TRUE, Box, Diamond, Node, Not
-from certiloop.proofs.core.wp import unroll
+from certiloop.proofs.core.wp import unroll, unrolled_paths
 
 Solvable = Callable[[ODE], bool]
+ITERATIONS = 3  # a loop's runs kept: those with at most this many iterations
+MAX_PATHS = 512  # nested loops' unrollings multiply: past this many paths, keep none
+
+
+def unrollable(p: Program, iterations: int = ITERATIONS) -> bool:
+    """Is p's unrolling small enough to expand (a 3-deep nest of two-way loops has 10^10 paths)?"""
+    return unrolled_paths(p, iterations) <= MAX_PATHS
 
 
 def bounded(f: Node, iterations: int, solvable: Solvable, assumed: bool = True) -> Node:
@@ -52,8 +61,10 @@ def _modality(f: Node, iterations: int, solvable: Solvable, assumed: bool) -> No
         return Box(program, post) if box else Diamond(program, post)
     # [a*]P keeps its first runs when assumed; <a*>P keeps them when it must imply the claim
     keeps_runs = assumed if box else not assumed
+    if not keeps_runs or not unrollable(program, iterations):
+        return TRUE if assumed else FALSE
     runs = unroll(program, iterations)
-    if not keeps_runs or not _flows_solvable(runs, solvable):
+    if not _flows_solvable(runs, solvable):
         return TRUE if assumed else FALSE
     post = bounded(f.args[0], iterations, solvable, assumed)
     return Box(runs, post) if box else Diamond(runs, post)

@@ -53,7 +53,6 @@ from certiloop.models.lang.terms import (
     REAL,
     TRUE,
     And,
-    Diamond,
     Implies,
     ModelError,
     Node,
@@ -64,7 +63,7 @@ from certiloop.models.lang.terms import (
     substitute,
 )
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.core.bounded import bounded
+from certiloop.proofs.core.bounded import ITERATIONS, MAX_PATHS, bounded, unrollable
 from certiloop.proofs.core.odes import (
     OdeStep,
     atom_premise,
@@ -238,11 +237,15 @@ class VCGen:
             finally:
                 self.nested_posts.pop()
         elif op == "diamond" and not is_loop_free(goal.payload):  # fewer runs: see the docstring
-            # a flow without a polynomial solution keeps its run of duration 0 (fewer runs again)
+            # a flow without a polynomial solution keeps its run of duration 0 (fewer runs again);
+            # every run must be defined, not just those kept (a 4th iteration may divide by 0)
+            st = st.via(f"<{_short(goal.payload)}> in at most {DIAMOND_ITERATIONS} iterations", "unrolled")
+            self.require_defined(st, "the guarantee", goal, annotation=True)
+            if not unrollable(goal.payload, DIAMOND_ITERATIONS):  # nested loops: too many runs to try
+                self.emit(st, FALSE, f"postcondition (the unrolling has over {MAX_PATHS} paths: not tried)")
+                return
             runs = unroll(goal.payload, DIAMOND_ITERATIONS)
             fewer = diamond(runs, expand_modalities(goal.args[0], self.names), self.names, unsolvable="stay")
-            st = st.via(f"<{_short(goal.payload)}> in at most {DIAMOND_ITERATIONS} iterations", "unrolled")
-            self.require_defined(st, "the guarantee", Diamond(runs, goal.args[0]), annotation=True)
             self.emit(st, fewer, "postcondition")
         else:  # a diamond or a negation: expanded exactly if it can be (wp.py says why not)
             self.require_defined(st, "the guarantee", goal, annotation=True)
@@ -260,6 +263,9 @@ class VCGen:
     def _exists(self, st: State, goal: Node) -> None:
         """∃R: the body at the theorem's witness terms, each evaluated in this state (so a
         program in the body that writes a symbol of the term does not change it)."""
+        # defined for every value of the variables, as the claim reads `\exists`, not just at the
+        # witness the body is then taken apart at
+        self.require_defined(st, "the guarantee", goal, annotation=True)
         chosen = dict(self.theorem.witnesses)
         missing = [v.payload for v in goal.payload if v.payload not in chosen]
         if missing:  # nothing to prove it with: an obligation that cannot be proved
@@ -433,7 +439,7 @@ PREMISE_NAMES = {"nonzero": "never zero in the domain"}
 # explains a failure downstream better than the loop around it
 BLAME_ORDER = ("dW", "dI", "dI-init", "dC", "guarantee-as-invariant", "loop-invariant", "loop-init",
                "witness", "unrolled", "guarded")
-DIAMOND_ITERATIONS = 3  # a loop inside a diamond: the runs with at most this many iterations
+DIAMOND_ITERATIONS = ITERATIONS  # a loop inside a diamond: the runs with at most this many iterations
 
 
 def _blamed(rules: tuple[str, ...]) -> str:

@@ -26,6 +26,8 @@ from certiloop.models.lang.terms import (
     Not,
     substitute,
 )
+from certiloop.proofs.core.bounded import ITERATIONS, bounded
+from certiloop.proofs.core.odes import solvable
 from certiloop.proofs.core.wd import defined, defined_term, has_division
 from certiloop.proofs.core.wp import _root_name, _update, box, expand_modalities, flow_solution, has_modality
 
@@ -41,18 +43,35 @@ def defined_modal(f: Node, names) -> Node:
         body = defined_modal(f.args[0], names)
         return TRUE if body.op == "true" else ForAll(f.payload, body)
     if op == "and":
-        return _left_to_right(f.args, lambda earlier: And(*earlier), names)
+        return _left_to_right(f.args, _all_hold, names)
     if op == "or":
-        return _left_to_right(f.args, lambda earlier: And(*(Not(e) for e in earlier)), names)
+        return _left_to_right(f.args, _all_fail, names)
     if op == "implies":
         a, b = f.args
-        return And(defined_modal(a, names), Implies(expand_modalities(a, names), defined_modal(b, names)))
+        return And(defined_modal(a, names), Implies(_condition(a, names), defined_modal(b, names)))
     return And(*(defined_modal(a, names) for a in f.args))  # not, iff
 
 
 def _left_to_right(args, reached, names) -> Node:
-    expanded = [expand_modalities(a, names) for a in args]
-    return And(*(Implies(reached(expanded[:k]), defined_modal(a, names)) for k, a in enumerate(args)))
+    # `and` reaches a part where the earlier ones hold, `or` where they fail
+    holds = [_condition(a, names, reached is _all_hold) for a in args]
+    return And(*(Implies(reached(holds[:k]), defined_modal(a, names)) for k, a in enumerate(args)))
+
+
+def _all_hold(earlier):
+    return And(*earlier)
+
+
+def _all_fail(earlier):
+    return And(*(Not(e) for e in earlier))
+
+
+def _condition(f: Node, names, holds: bool = True) -> Node:
+    """f, where the check asks definedness only in the states where f holds (holds) or
+    fails: a loop (or a flow without a polynomial solution) in its modalities is bounded
+    (bounded.py) to a weaker f, or a stronger one where it must fail, so the check asks it in
+    more states than needed, never fewer (may_overstate says so)."""
+    return expand_modalities(bounded(f, ITERATIONS, solvable, assumed=holds), names)
 
 
 def along(p: Program, after: Node, names) -> Node:
@@ -67,7 +86,7 @@ def along(p: Program, after: Node, names) -> Node:
         return And(*(defined_term(t) for t in _indices(p.target)),
                    ForAll(fresh, substitute(after, _update(p.target, fresh))))
     if isinstance(p, Test):
-        return And(defined_modal(p.cond, names), Implies(expand_modalities(p.cond, names), after))
+        return And(defined_modal(p.cond, names), Implies(_condition(p.cond, names), after))
     if isinstance(p, Seq):
         for q in reversed(p.parts):
             after = along(q, after, names)

@@ -11,6 +11,7 @@ vacuity check, and by the refuter on loop unrollings).
 from __future__ import annotations
 
 import copy
+import math
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import (
@@ -166,6 +167,19 @@ def _flow(p: ODE, names, unsolvable: str):
     along = holds_along(p.domain, sol, tau, s)
     end = {name: substitute(x, {s.name: tau}) for name, x in sol.items()}
     return tau, along, end
+
+
+def unrolled_paths(p: Program, depth: int) -> int:
+    """How many paths `unroll(p, depth)` has: a loop whose body has b paths gets
+    1 + b + ... + b^depth, so nested loops multiply fast."""
+    if isinstance(p, Seq):
+        return math.prod(unrolled_paths(q, depth) for q in p.parts)
+    if isinstance(p, Choice):
+        return sum(unrolled_paths(q, depth) for q in p.alternatives)
+    if isinstance(p, Loop):
+        body = unrolled_paths(p.body, depth)
+        return sum(body ** n for n in range(depth + 1))
+    return 1
 
 
 def unroll(p: Program, depth: int) -> Program:
