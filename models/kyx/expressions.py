@@ -593,6 +593,10 @@ class Builder:
         # along the flow x' equals its right-hand side (only primes already in use matter)
         flow = {self.primes[x.payload]: f for x, f in eqs if x.payload in self.primes}
         domain, invariants = substitute(domain, flow), [substitute(i, flow) for i in invariants]
+        if set(free_vars(domain)) & {s.payload for _, s, _ in lifted}:
+            # the domain reads x' = sqrt(e) where the side condition has not shown e >= 0
+            raise self.fail(t, "a differential symbol in the domain of an ODE whose right-hand side takes a "
+                            "square root is not supported")
         prefix, eqs, domain = self._lifted_flow(lifted, eqs, domain, t)
         try:
             system = ode(eqs, domain, invariants=invariants)
@@ -600,8 +604,8 @@ class Builder:
             raise self.fail(t, str(exc)) from None
         if lifted:
             self.lifted_flows[id(system)] = (system, lifted)
-        # old(e): remember e just before the flow
-        return seq(*(self._assign(Real(n), e, t) for n, e in olds.items()), *prefix, system)
+        # old(e): remember e just before the flow (after the lifted roots start: e may hold one)
+        return seq(*prefix, *(self._assign(Real(n), e, t) for n, e in olds.items()), system)
 
     def _lifted_flow(self, lifted, eqs, domain, where):
         """The statements that start each lifted root, the flow's equations and domain with

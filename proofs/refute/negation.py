@@ -132,8 +132,12 @@ def negation_at(theorem: Theorem, state: dict[str, Any]) -> list[Theorem]:
         # (IJRR17's Theorem 9: 55 s, Theorem 5: 3 s -> 16 s), so those are left to the search
         raise ModelError("the negation holds a large loop inside a diamond: left to the run search")
     assumptions, program, guarantee = split_problem(Implies(pin, negated))
+    # the claim's side conditions come along: a lifted root's (kyx/lifting.py) makes the lifted
+    # flow's runs the original's, without which its box has fewer runs and its negation
+    # would be proved where the claim is true (`x = 0 -> <{x' = sqrt(x^2) + 1}> x >= 1`)
     out.append(Theorem(name=f"{theorem.name} (negation at a state)", assumptions=assumptions, program=program,
-                       guarantee=guarantee, expected="proved", unroll=1))
+                       guarantee=guarantee, expected="proved", unroll=1, well_defined=theorem.well_defined,
+                       defined_if=theorem.defined_if))
     return out
 
 
