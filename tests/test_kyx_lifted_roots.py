@@ -202,3 +202,18 @@ def test_a_flow_dividing_by_a_zero_term_is_ill_defined_not_a_crash():
     # 1/(0*x): sympy's solution is complex infinity, which used to fail an internal check
     result = prove("x = 0 -> [{x' = 1/(0*x)}] x >= 0", variables="Real x;")
     assert result.ill_defined or result.verdict == "unknown"
+
+
+def test_a_float_only_run_does_not_fail_the_gate_of_a_proved_model():
+    # a third red team: `1e12*(sqrt(1-x^2)*sqrt(1-x^2) + x^2 - 1) <= 0` is proved (it is 0), but
+    # the falsifier's float run takes the lifted root s with s*s = 1 - x^2 only within rounding
+    # and reports it violated "in floating point only (not validated)": no evidence against an
+    # exact proof. A validated run still fails the gate
+    from certiloop.falsify.depth import FLOAT_ONLY
+    from certiloop.proofs.cli.gate import GateEntry
+
+    def entry_with(check):
+        return GateEntry("m", "proved", "proved", 0.1, [], falsify={"verdict": "refuted", "check": check,
+                                                                  "violated": "p <= 0"})
+    assert not entry_with(f"{FLOAT_ONLY}: violated by 0.0142 (not validated)").problems
+    assert entry_with("replayed in exact rational arithmetic").problems
