@@ -57,8 +57,12 @@ class Flow:
         self.exact = compiler.exact
         self.names = [v.name for v in ode.variables]
         self.rhs = [compiler(f) for _, f in ode.eqs]
-        self.domain = margin(ode.domain, compiler)
+        # the domain holds at the start in full; along the flow, the equalities it keeps by
+        # itself need no watching (a lifted root's s*s = e, which rounding would break at once)
+        along = conserved_apart(ode)[0]
+        self.domain = margin(along, compiler)
         self.domain_holds = compiler(ode.domain)
+        self.along_holds = compiler(along)
         s, solution = flow_solution(ode)
         self.s_name = s.payload
         self.solution = None if solution is None else {n: compiler(x) for n, x in solution.items()}
@@ -66,7 +70,7 @@ class Flow:
         self._along = None
         # the components of the closed form the domain reads: its scalar margin along the flow
         # computes only these (`_margin_along`)
-        reads = free_vars(ode.domain)
+        reads = free_vars(along)
         self._domain_parts = [] if solution is None else [
             (n, fn) for n, fn in self.solution.items() if n in reads]
         self._vector = _NOT_YET
@@ -257,6 +261,28 @@ class Flow:
         env["tau@flow"] = tau
         if truth(self._along, env) is not True:
             raise Blocked("the evolution domain does not provably hold along the flow")
+
+
+def conserved_apart(ode: ODE) -> tuple[Node, tuple[Node, ...]]:
+    """The domain without its equalities `a = b` that the flow conserves (the derivative of
+    a - b along it is identically 0), and those equalities. A solution that starts on such an
+    equality stays on it for as long as it is defined, so only the rest must be watched."""
+    from certiloop.models.lang.terms import And, ModelError
+    from certiloop.proofs.core.odes import lie_derivative
+
+    parts = ode.domain.args if ode.domain.op == "and" else (ode.domain,)
+    kept, conserved = [], []
+    for part in parts:
+        if part.op == "cmp" and part.payload == "==" and part.args[0].sort.is_numeric:
+            try:
+                rate = lie_derivative(part.args[0] - part.args[1], ode)
+            except ModelError:
+                rate = None
+            if rate is not None and rate.op == "const" and rate.payload == 0:
+                conserved.append(part)
+                continue
+        kept.append(part)
+    return And(*kept), tuple(conserved)
 
 
 def _last_inside(g, start: float, end: float, depth: int) -> float:

@@ -34,6 +34,7 @@ from certiloop.falsify.evaluate import (
 from certiloop.falsify.flows import Flow
 from certiloop.falsify.initial import initial_state
 from certiloop.falsify.state import Rejected, put, remove, solve_linear
+from certiloop.models.kyx.roots import exact_root
 from certiloop.models.lang.programs import (
     ODE,
     Assign,
@@ -473,12 +474,41 @@ class Interpreter:
             if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
                 continue
             x = solve_linear(self.c(atom.args[0]), self.c(atom.args[1]), key, s, self.exact)
+            if x is None:
+                x = self._square_root(atom, key, s)
             if x is not None:
                 return x
         return None
 
+    def _square_root(self, atom: Node, key, s: dict[str, Any]):
+        """The root that `key*key = t` (a square root lifted by the kyx reader: `?(r > 0 & r*r = e)`)
+        pins down, with t known now: its non-negative root, exact only where it is rational
+        (else None: the exact replay cannot take it). The test still decides."""
+        for square, other in (atom.args, atom.args[::-1]):
+            if not (isinstance(key, str) and _is_square_of(square, key)) or key in free_vars(other):
+                continue
+            try:
+                t = self.c(other)(s)
+            except (NeedValue, Blocked, ArithmeticError):
+                return None
+            if isinstance(t, bool) or not isinstance(t, (int, float, Fraction)) or t < 0:
+                return None
+            if self.exact:
+                return exact_root(Fraction(t))
+            return math.sqrt(t) if math.isfinite(t) else None
+        return None
+
 
 # --------------------------------------------------------------------------- helpers
+
+
+def _is_square_of(n: Node, key: str) -> bool:
+    """Is n written `key*key` or `key^2`?"""
+    if n.op == "^":
+        base = n.args[0]
+        return n.payload == 2 and base.op == "var" and base.payload == key
+    return (n.op == "*" and len(n.args) == 2
+            and all(a.op == "var" and a.payload == key for a in n.args))
 
 
 def _span(lo, hi, width, neither):

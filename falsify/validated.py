@@ -67,7 +67,7 @@ class EnclosingInterpreter(Interpreter):
         for swept in box.path:  # the domain must hold all along: on every swept box
             trial.update({n: IntervalValue(x) for n, x in zip(system.names, swept)})
             try:
-                inside = flow.domain_holds(trial)
+                inside = flow.along_holds(trial)
             except Uncertain:
                 inside = False
             if not inside:

@@ -168,7 +168,7 @@ def test_the_counterexamples_violate_the_claim_with_a_real_root(verdicts):
     ("Problem x >= 1 -> [x := x - 1;] x^(1/2) >= 0", "square root of `x`, which may be negative and changes "
                                                    "with `x`"),
     ("Problem \\forall z (z^(1/2) >= 0 | z < 0)", "changes with `z`"),
-    ("Problem [{x' = abs(x)}] x >= 0", "abs/min/max"),
+    ("Problem [{x' = sqrt(max(x, 1))}] x >= 0", "holds abs/min/max"),
     ("Problem (-4)^(1/2) > 0", "square root of the negative number -4"),
     ("Problem x^(1/3) > 0", "only integer literals and halves"),
     ("Problem (x^(1/2) + 1)^(1/2) > 0", "holds abs/min/max or another root"),

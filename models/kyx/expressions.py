@@ -77,6 +77,8 @@ class Builder:
         # the roots lifted there (e, s, moved by the flow); side conditions `Q -> e > 0`
         self.flow: frozenset[str] | None = None
         self.lifted: list[tuple[Node, Node, bool]] = []
+        # abs/min/max read while a right-hand side is: (a, its sign g, moved by the flow, as written)
+        self.signs: list[tuple[Node, Node, bool, str]] = []
         self.lift_conditions: list[tuple[str, Node]] = []
         # where a lifted root written again means its variable: (e, s, binders around it then,
         # programs being read then: inside a program read later, statements may write e)
@@ -199,6 +201,8 @@ class Builder:
             want = 1 if name == "abs" else 2
             if len(args) != want:
                 raise self.fail(t, f"{name} takes {want} argument(s), got {len(args)}")
+            if self.flow is not None:  # an ODE's right-hand side: a run may cross between the cases
+                return self._lifted_case(name, args, t)
             marker = f"{name}@{len(self.cases) + 1}"
             self.cases[marker] = (name, tuple(args))
             return Real(marker)
@@ -338,7 +342,8 @@ class Builder:
     def root(self, e: Node, where) -> Node:
         """sqrt(e): a number; a marker eliminated at its comparison when e is never negative by
         its shape; otherwise a symbol the reader pins down where the claim shows e >= 0."""
-        if any(m in self.cases or m in self.named_roots for m in free_vars(e)):
+        signs = {g.payload for _, g, _, _ in self.signs}
+        if any(m in self.cases or m in self.named_roots or m in signs for m in free_vars(e)):
             raise self.fail(where, f"the square root of `{self.shown(e)}`, which holds abs/min/max or "
                             "another root, is not supported")
         if (alias := self._alias(e)) is not None:
@@ -363,6 +368,36 @@ class Builder:
         named = self.fresh_variable("sqrt")
         self.named_roots[named.payload] = (e, where)
         return named
+
+    def _lifted_case(self, kind: str, args: list[Node], where) -> Node:
+        """abs/min/max in an ODE's right-hand side, where the flow cannot be split into the
+        cases (a run may cross between them, infinitely often for all we know): |a| becomes
+        g*a with a constant sign g = ±1 (lifting.py, `signed`), min(a, b) = (a + b - |a - b|)/2
+        and max(a, b) = (a + b + |a - b|)/2."""
+        if any(a.sort == BOOL for a in args):
+            raise self.fail(where, f"{kind} takes terms, not formulas")
+        a = args[0] if kind == "abs" else args[0] - args[1]
+        written = f"{kind}({', '.join(str(self.shown(x)) for x in args)})"
+        magnitude = self._signed(a, where, written)
+        if kind == "abs":
+            return magnitude
+        total, half = args[0] + args[1], const(Fraction(1, 2))
+        return half * (total - magnitude) if kind == "min" else half * (total + magnitude)
+
+    def _signed(self, a: Node, where, written: str) -> Node:
+        """|a| in the right-hand side being read: g*a for a fresh constant g = ±1."""
+        if set(free_vars(a)) & set(self.primes.values()):
+            raise self.fail(where, "a differential symbol in an ODE right-hand side is not supported")
+        for known, g, _, _ in self.signs:
+            if known.same(a):
+                return g * a
+        g = self.fresh_variable("sign")
+        moving = moves(a, self.flow) or bool(set(free_vars(a)) & self._lifted_names())
+        self.signs.append((a, g, moving, written))
+        return g * a
+
+    def _lifted_names(self) -> set[str]:
+        return {s.payload for _, s, _ in self.lifted}
 
     def _alias(self, e: Node) -> Node | None:
         """The variable a root of e was lifted to, where it still means sqrt(e): right after
@@ -570,20 +605,20 @@ class Builder:
         domain_tree = rest[0] if rest and rest[0].data != "annotation" else None
         notes = rest[1:] if domain_tree is not None else rest
         eqs: list[tuple[Node, Node]] = []
-        outer = self.flow, self.lifted
-        self.flow, self.lifted = frozenset(str(eq.children[0])[:-1] for eq in eqs_tree.children), []
+        outer = self.flow, self.lifted, self.signs
+        self.flow = frozenset(str(eq.children[0])[:-1] for eq in eqs_tree.children)
+        self.lifted, self.signs = [], []
         try:
             for eq in eqs_tree.children:
                 lhs, rhs = eq.children
                 value = self._num(rhs, env)
                 bad = [m for m in free_vars(value) if m in self.cases or m in self.primes.values()]
                 if bad:
-                    raise self.fail(rhs, "abs/min/max or a differential symbol in an ODE right-hand side is "
-                                    "not supported")
+                    raise self.fail(rhs, "a differential symbol in an ODE right-hand side is not supported")
                 eqs.append((Real(str(lhs)[:-1]), value))
-            lifted = self.lifted
+            lifted, signs = self.lifted, self.signs
         finally:
-            self.flow, self.lifted = outer
+            self.flow, self.lifted, self.signs = outer
         domain = TRUE if domain_tree is None else self._bool(domain_tree, env)
         self.aliases.extend((e, s, len(self.binders), self.programs) for e, s, _ in lifted)  # along the flow
         try:
@@ -598,6 +633,7 @@ class Builder:
             raise self.fail(t, "a differential symbol in the domain of an ODE whose right-hand side takes a "
                             "square root is not supported")
         prefix, eqs, domain = self._lifted_flow(lifted, eqs, domain, t)
+        prefix, domain = self._signed_flow(signs, prefix, domain)
         try:
             system = ode(eqs, domain, invariants=invariants)
         except ModelError as exc:
@@ -628,6 +664,23 @@ class Builder:
             self.lift_conditions.append((f"the flow keeps `{self.shown(e)}` > 0 (its square root is lifted)",
                                          Implies(domain, e > 0)))
         return prefix, eqs + extra, And(domain, *inside) if inside else domain
+
+    def _signed_flow(self, signs, prefix: list[Program], domain: Node) -> tuple[list[Program], Node]:
+        """Each sign g of an |a| in the flow is chosen before it, so that g*a = |a| there
+        (lifting.py, `signed`). If the flow moves a, the domain keeps g*a > 0, and the side
+        condition `domain -> a != 0` must be proved (after the roots' statements, whose pins a
+        may read)."""
+        pins = []
+        for a, g, moving, call in signs:
+            shown = self.shown(a)
+            positive = (a > 0) if moving else (a >= 0)
+            prefix.append(choice((f"{call}: {positive}", seq(assign(g, 1), test(positive))),
+                                 (f"{call}: {shown} < 0", seq(assign(g, -1), test(a < 0)))))
+            if moving:
+                self.lift_conditions.append((f"the flow keeps `{shown}` != 0 ({call} keeps one sign)",
+                                             Implies(And(domain, *pins), cmp("!=", a, 0))))
+                pins.append(g * a > 0)  # the later signs' side conditions may assume it
+        return prefix, And(domain, *pins) if pins else domain
 
     def _annotations_with_olds(self, notes: list[Tree], env) -> tuple[list[Node], dict[str, Node]]:
         """A loop's or an ODE's annotations, and the `old(e)` they use: fresh name -> e."""

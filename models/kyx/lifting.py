@@ -1,4 +1,5 @@
-"""Square roots in an ODE's right-hand side, lifted to a variable of the flow.
+"""Square roots in an ODE's right-hand side, lifted to a variable of the flow; abs, min and max
+there, by a constant sign.
 
 KeYmaera X writes Kepler's problem as `{x' = v, v' = -x/(x^2+y^2)^(3/2), ... & x != 0 | y != 0}`.
 certiloop's terms have no square root, so each root r = sqrt(e) in a right-hand side becomes a
@@ -24,6 +25,22 @@ Right after such a flow (a box or diamond whose program ends with it) and along 
 annotations), the same root written again means s: the reader reads it as s there
 (`Builder.root`), which keeps an invariant such as the energy of Kepler's problem in the form
 whose derivative is a polynomial identity.
+
+abs, min and max in a right-hand side (`signed`, built by `Builder._lifted_case`). A run may
+cross from one case into the other, so the flow cannot be split into its cases. Instead
+|a| = g*a for a constant sign g chosen before the flow,
+
+    {g := 1; ?a > 0 ++ g := -1; ?a < 0};  {x' = f(x, g*a) & Q & g*a > 0}
+
+(min(a, b) = (a + b - |a - b|)/2, max(a, b) = (a + b + |a - b|)/2), with the side condition
+`Q -> a != 0`. Why: along a run of the original flow that stays in Q, a is continuous and never
+0, so it keeps the sign it starts with, g*a = |a| all along, and the run is a run of the signed
+flow inside its domain. Conversely the domain keeps g*a > 0, so g*a = |a| along every signed
+run, which is a run of the original: no side condition is needed for a diamond or a
+counterexample. The right-hand side stays polynomial (it may still be solved, and a
+counterexample confirmed by interval enclosures). Where the flow may reach a = 0 the side
+condition fails and the claim is unknown. If the flow does not move a, the sign is a constant
+chosen with `a >= 0` and needs neither pin nor side condition.
 """
 
 from __future__ import annotations

@@ -8,6 +8,7 @@ equivalence, a quantifier) stays in the guarantee, behind the program `?true`.
 Language the engine does not have is translated exactly or refused with line and column:
   * definitions (functions, predicates, programs) are expanded where they are used;
   * `abs`, `min`, `max` are split into cases at the comparison (or assignment) using them;
+    in an ODE's right-hand side, |a| is g*a for a sign g chosen before the flow (lifting.py);
   * a differential symbol `x'` is an ordinary variable that an ODE sets to its right-hand
     side at the end of the flow (dL's semantics); inside the ODE's own domain and
     annotations it is replaced by that right-hand side, which it equals along the flow;
@@ -16,7 +17,8 @@ Language the engine does not have is translated exactly or refused with line and
   * a square root `e^(1/2)` (or `sqrt(e)`, `e^(k/2)`) of a sum of squares is eliminated at
     each comparison (roots.py); of any other term that no program writes, it is a symbol s
     pinned by `s >= 0 & s^2 = e` in the assumptions, and the claim is well-defined only if
-    its first assumptions give e >= 0 (a `defined` obligation, like a division's).
+    its first assumptions give e >= 0 (a `defined` obligation, like a division's); in an
+    ODE's right-hand side it is lifted to a variable of the flow (lifting.py).
 """
 
 from __future__ import annotations
