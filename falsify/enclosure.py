@@ -91,12 +91,17 @@ class TaylorSystem:
             rhs = [sympy.expand(to_sympy(f, table)) for _, f in ode.eqs]
         except TypeError as exc:
             raise CannotEnclose(f"not an arithmetic right-hand side: {exc}") from None
-        for f in rhs:
-            if not f.is_polynomial(*xs):
-                raise CannotEnclose(f"the right-hand side {f} is not polynomial in {xs}")
+        rhs, inverted = _inverted(rhs, xs)
+        if any(not f.is_polynomial(*xs, *inverted) for f in rhs):
+            bad = next(f for f in rhs if not f.is_polynomial(*xs, *inverted))
+            raise CannotEnclose(f"the right-hand side {bad} is not polynomial in {xs}")
         # constants of the flow: every other symbol (a parameter, an array cell)
-        self.params = [s for s in sorted(set().union(*(f.free_symbols for f in rhs)) - set(xs), key=str)]
+        known = set().union(*(f.free_symbols for f in rhs), *(d.free_symbols for d in inverted.values()))
+        self.params = [s for s in sorted(known - set(xs) - set(inverted), key=str)]
         self.param_atoms = [table.atom(s) for s in self.params]
+        with precision():
+            self._denominators = _compiled(list(inverted.values()), xs + self.params)
+        xs = xs + list(inverted)
         levels, size = [list(xs)], 0
         while len(levels) <= ORDER:
             nxt = [sympy.expand(sum(sympy.diff(g, x) * f for x, f in zip(xs, rhs))) for g in levels[-1]]
@@ -108,6 +113,51 @@ class TaylorSystem:
         with precision():  # the rational constants' enclosures
             self.rhs = _compiled(rhs, xs + self.params)
             self.levels = [_compiled(level, xs + self.params) for level in levels]
+
+
+    def start(self, values: list[Any], params: list[Any]) -> list[Any]:
+        """The start of the enclosed system: the flow's values, then 1/d for each inverted
+        denominator d (an interval holding 0 there: the flow cannot start)."""
+        with precision():
+            x, p = [iv_of(v) for v in values], [iv_of(v) for v in params]
+            out = list(x)
+            for d in self._denominators(x + p):
+                if d.a <= 0 <= d.b:
+                    raise CannotEnclose("a denominator of the right-hand side may be 0 where the flow starts")
+                out.append(1 / d)
+            return out
+
+
+def _inverted(rhs: list, xs: list) -> tuple[list, dict]:
+    """A rational right-hand side made polynomial: each denominator d that mentions a flow
+    variable becomes a new variable w, with w' = -w^2 * d' (the derivative of 1/d). Along a
+    solution that starts with w = 1/d, (w*d)' = w*d'*(1 - w*d) keeps w*d = 1 (the solution
+    of a polynomial system is unique), so the enlarged system's solution from there is the
+    original one, with w = 1/d beside it. Returns the enlarged right-hand sides (the flow's,
+    then the w's) and {w: d}."""
+    import sympy
+
+    moving = set(xs)
+    inverted: dict = {}
+    out = []
+    for f in rhs:
+        if f.is_polynomial(*xs):
+            out.append(f)
+            continue
+        numerator, denominator = sympy.fraction(sympy.together(f))
+        denominator = sympy.expand(denominator)
+        if not denominator.free_symbols & moving:
+            out.append(f)
+            continue
+        w = next((w for w, d in inverted.items() if d == denominator), None)
+        if w is None:
+            w = sympy.Dummy(f"inv{len(inverted)}")
+            inverted[w] = denominator
+        out.append(sympy.expand(numerator * w))
+    for w, d in inverted.items():
+        rate = sum(sympy.diff(d, x) * f for x, f in zip(xs, out))
+        out.append(sympy.expand(-w ** 2 * rate))
+    return out, inverted
 
 
 def _compiled(exprs, symbols) -> Callable[[list], list]:

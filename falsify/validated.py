@@ -59,7 +59,7 @@ class EnclosingInterpreter(Interpreter):
         try:
             system = self._system(p)
             params = [_iv(self._value(self.c(atom), s)) for atom in system.param_atoms]
-            box = enclose(system, [_iv(s[n]) for n in system.names], params, tau)
+            box = enclose(system, system.start([_iv(s[n]) for n in system.names], params), params, tau)
         except CannotEnclose as exc:
             self.why = str(exc)
             raise Uncertain(f"no enclosure of {p}: {exc}") from None

@@ -9,7 +9,7 @@ from fractions import Fraction as F
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mpmath import cos, exp, mp, sin
+from mpmath import cos, exp, mp, sin, sqrt
 
 from certiloop.falsify import enclosure
 from certiloop.falsify.enclosure import CannotEnclose, TaylorSystem, enclose
@@ -37,6 +37,12 @@ KNOWN = {
                                              lambda t: [cos(t), -sin(t)]),
     "x' = a*x, a = -3/7 a parameter": (ode({x: a * x}), [F(2, 3)], [F(-3, 7)],
                                        lambda t: [F(2, 3) * exp(-3 * t / 7)]),
+    # rational right-hand sides: each moving denominator d becomes a variable w = 1/d
+    "x' = 1/x from 1: sqrt(1 + 2t)": (ode({x: 1 / x}), [F(1)], [], lambda t: [sqrt(1 + 2 * t)]),
+    "x' = 1/(x + a), a = 1/2: sqrt(9/4 + 2t) - 1/2": (ode({x: 1 / (x + a)}), [F(1)], [F(1, 2)],
+                                                      lambda t: [sqrt(F(9, 4) + 2 * t) - F(1, 2)]),
+    "x' = -y/(x^2+y^2), y' = x/(x^2+y^2) from (1, 0)": (
+        ode({x: -y / (x**2 + y**2), y: x / (x**2 + y**2)}), [F(1), F(0)], [], lambda t: [cos(t), sin(t)]),
 }
 
 
@@ -46,7 +52,8 @@ def _contains(fn, box, t) -> bool:
 
 def _check_known(name, tau):
     eq, start, params, fn = KNOWN[name]
-    box = enclose(TaylorSystem(eq), start, params, tau)
+    system = TaylorSystem(eq)
+    box = enclose(system, system.start(start, params), params, tau)
     assert box.times[-1] == tau and box.width < 1e-9, (name, box.width)
     assert _contains(fn, box.end, tau), name
     for k in range(1, len(box.times)):  # every step's swept box holds the path on its times
@@ -99,9 +106,21 @@ def test_a_blow_up_is_reported_not_enclosed():
         enclose(TaylorSystem(ode({x: x**2})), [F(1)], [], F(2))  # x = 1/(1 - t): gone at t = 1
 
 
-def test_non_polynomial_flows_are_not_enclosed():
-    with pytest.raises(CannotEnclose, match="not polynomial"):
-        TaylorSystem(ode({x: 1 / x}))
+def test_a_rational_flow_is_enclosed_with_one_variable_per_denominator():
+    system = TaylorSystem(ode({x: -y / (x**2 + y**2), y: x / (x**2 + y**2)}))
+    assert len(system.start([F(1), F(0)], [])) == 3  # x, y and 1/(x^2 + y^2)
+
+
+def test_a_flow_starting_where_a_denominator_is_0_is_not_enclosed():
+    with pytest.raises(CannotEnclose, match="denominator"):
+        TaylorSystem(ode({x: 1 / x})).start([F(0)], [])
+
+
+def test_a_rational_flow_that_reaches_its_pole_is_not_enclosed():
+    # x' = -1/x from 1: x = sqrt(1 - 2t) reaches 0 at t = 1/2, where 1/x blows up
+    system = TaylorSystem(ode({x: -1 / x}))
+    with pytest.raises(CannotEnclose):
+        enclose(system, system.start([F(1)], []), [], F(1))
 
 
 def test_interval_comparisons_are_decided_or_uncertain():

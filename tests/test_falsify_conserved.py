@@ -49,10 +49,11 @@ def test_an_equality_the_flow_leaves_still_stops_it():
 
 
 def test_a_lifted_root_flow_is_followed_past_its_start():
-    # the circle at speed 1/5: the lifted root of x^2 + y^2 is pinned by s*s = x^2 + y^2
+    # the circle at speed 1/5: the lifted root of x^2 + y^2 is pinned by s*s = x^2 + y^2, and the
+    # lifted flow divides by s (enclosure.py makes 1/s a variable of its own)
     found = search("x = 3 & y = 4 -> [{x' = -y/(x^2+y^2)^(1/2), y' = x/(x^2+y^2)^(1/2) & x^2 + y^2 > 0}] "
                    "x >= -4")
-    assert found.found
+    assert found.found and found.validated and "enclosures" in found.check, found.check
     assert on_circle(float(found.run.checkpoints[-1].time) / 5) < -4
 
 
