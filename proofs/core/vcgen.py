@@ -236,7 +236,11 @@ class VCGen:
                 self.exec(goal.payload, st.at(f"[{_short(goal.payload)}]"), lambda s: self.establish(s, post))
             finally:
                 self.nested_posts.pop()
-        elif op == "diamond" and not is_loop_free(goal.payload):  # fewer runs: see the docstring
+        elif op == "diamond" and executed(goal.args[0]):  # <a>[b*]P: by a run of a that stays put
+            st = st.via(f"<{_short(goal.payload)}> staying put", "unrolled")
+            self.require_defined(st, "the guarantee", goal, annotation=True)
+            self._stay(goal.payload, st, lambda s: self.establish(s, goal.args[0]))
+        elif op == "diamond" and not expandable(goal.payload):  # fewer runs: see the docstring
             # a flow without a polynomial solution keeps its run of duration 0 (fewer runs again);
             # every run must be defined, not just those kept (a 4th iteration may divide by 0)
             st = st.via(f"<{_short(goal.payload)}> in at most {DIAMOND_ITERATIONS} iterations", "unrolled")
@@ -250,6 +254,31 @@ class VCGen:
         else:  # a diamond or a negation: expanded exactly if it can be (wp.py says why not)
             self.require_defined(st, "the guarantee", goal, annotation=True)
             self.emit(st, goal, "postcondition")
+
+    def _stay(self, p: Program, st: State, k: Callable[[State], None]) -> None:
+        """<p>P by the one run of p that changes nothing but its assignments: a flow for no
+        time (its domain must hold), a loop's zero iterations, every test true. That run is one
+        of p's, so <p>P follows from P after it. A choice or x := * would need a witness."""
+        if isinstance(p, Assign):
+            k(st.bind(self._write(st, p.target, st.value(p.value))))
+        elif isinstance(p, (Test, ODE)):
+            cond, what = (p.cond, "the test holds") if isinstance(p, Test) else (
+                p.domain, "the domain holds (a flow for no time)")
+            self.emit(st, cond, what)
+            k(st.assume(st.value(expand_modalities(cond, self.names))))
+        elif isinstance(p, Loop):
+            k(st)
+        elif isinstance(p, Seq):
+            self._stay_along(p.parts, st, k)
+        else:
+            raise ModelError(f"a diamond over `{_short(p)}` before a loop or an unsolved flow in its "
+                             "postcondition is not supported (a choice or x := * needs a witness)")
+
+    def _stay_along(self, parts: tuple[Program, ...], st: State, k: Callable[[State], None]) -> None:
+        if not parts:
+            k(st)
+            return
+        self._stay(parts[0], st, lambda s: self._stay_along(parts[1:], s, k))
 
     def _assumed(self, st: State, fact: Node) -> State:
         """st with fact assumed; a loop (or an unsolved flow) in its modalities bounded by
@@ -448,15 +477,20 @@ def _blamed(rules: tuple[str, ...]) -> str:
 
 def executed(f: Node) -> bool:
     """Does f hold a modality the core executes (the sequent rules, then its program by the
-    rules above) rather than expands exactly (wp.py): one holding a loop, or a box holding an
-    ODE without a polynomial solution?"""
-    return has_loop_modality(f) or _unsolved_box(f)
+    rules above) rather than expands exactly (wp.py): one holding a loop, or an ODE without a
+    polynomial solution?"""
+    return has_loop_modality(f) or _unsolved_modality(f)
 
 
-def _unsolved_box(f: Node) -> bool:
-    if f.op == "box" and any(not solvable(ode) for ode in _odes(f.payload)):
+def expandable(p: Program) -> bool:
+    """Can wp.py write [p]P and <p>P exactly: no loop, and every flow solved in polynomials?"""
+    return is_loop_free(p) and all(solvable(ode) for ode in _odes(p))
+
+
+def _unsolved_modality(f: Node) -> bool:
+    if f.op in ("box", "diamond") and any(not solvable(ode) for ode in _odes(f.payload)):
         return True
-    return any(_unsolved_box(a) for a in f.args)
+    return any(_unsolved_modality(a) for a in f.args)
 
 
 def _odes(p: Program) -> list[ODE]:

@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Callable
 
+from certiloop.models.lang.nesting import positive_form
 from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq
 from certiloop.models.lang.terms import TRUE, And, Implies, ModelError, Node, Not, cmp, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -74,11 +75,12 @@ def odes_of(p: Program) -> list[ODE]:
 
 def theorem_odes(theorem: Theorem) -> list[ODE]:
     """The ODEs the core proves by a chain: the program's, and those of the guarantee's boxes
-    that hold a loop (the core executes them; a loop-free box is expanded exactly)."""
+    that it executes (a loop, or a flow without a polynomial solution: a diamond's too, which a
+    negation turns into a box); a box it expands exactly needs no chain."""
     found = {ode.key: ode for ode in odes_of(theorem.program)}
 
     def walk(f: Node) -> None:
-        if f.op == "box" and executed(f):
+        if f.op in ("box", "diamond") and executed(f):
             for ode in odes_of(f.payload):
                 found.setdefault(ode.key, ode)
         for a in f.args:
@@ -95,8 +97,11 @@ def goals(f: Node) -> Node:
     seven-variable flow's 14 box bounds cost Laub-Loomis 49 s of trials.)"""
     if not executed(f):
         return f
-    if f.op == "box":
+    if f.op in ("box", "diamond"):  # a diamond the core executes: by the run that stays put
         return goals(f.args[0])
+    if f.op == "not":  # the core pushes it inward first
+        inward = positive_form(f, executed)
+        return TRUE if inward.op == "not" else goals(inward)
     if f.op == "implies":
         return goals(f.args[1])
     if f.op in ("and", "or", "forall", "exists"):
