@@ -38,6 +38,7 @@ from certiloop.falsify.batch_open import OpenValues, runs, solve_affine
 from certiloop.falsify.batch_state import Bind, State
 from certiloop.falsify.choosers import REAL_RANGE
 from certiloop.falsify.evaluate import Table
+from certiloop.falsify.flows import conserved_apart
 from certiloop.falsify.interpreter import HORIZON, LOOP_BOUND, OPEN_LOOP_ITERATIONS, _outer_loop, index_sorts
 from certiloop.falsify.vectorise import (
     Leaf,
@@ -127,7 +128,7 @@ class _Flow:
         self.rhs = [vc(f) for f in self.rhs_nodes]
         self.domain = ode.domain
         self.domain_truth = vc(ode.domain)
-        self.domain_margin = vc.margin(ode.domain)
+        self.domain_margin = vc.margin(conserved_apart(ode)[0])  # along the flow (flows.py)
         s, solution = flow_solution(ode)
         self.s_name = s.payload
         self.solution = None if solution is None else {n: vc(x) for n, x in solution.items()}

@@ -24,6 +24,7 @@ from __future__ import annotations
 import hashlib
 import math
 import time
+from collections import Counter
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -109,6 +110,23 @@ def _modal_tests(p: Program) -> bool:
     return _modal(p.cond) if isinstance(p, Test) else any(_modal_tests(q) for q in children(p))
 
 
+def _why_blocked(exc: Exception) -> str:
+    if isinstance(exc, Rejected):
+        return "the drawn start state missed the assumptions (are the assumptions satisfiable?)"
+    if isinstance(exc, Blocked):
+        return f"{exc}"
+    return "values beyond the models' scale"
+
+
+def _blocked_note(blocked: Counter[str]) -> str:
+    """Why every run was rejected, most common first (a test no run passes, such as the
+    `?t >= 2` of `[flow](t >= 2 -> P)`, or assumptions no drawn state meets)."""
+    if not blocked:
+        return "every run was rejected"
+    reasons = [f"{why} ({n})" for why, n in blocked.most_common(2)]
+    return "every run stopped early: " + "; ".join(reasons)
+
+
 class _Found(Exception):
     def __init__(self, run: Run, check: str, script) -> None:
         super().__init__(run.violated)
@@ -142,13 +160,15 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
         examples = min(examples, opts.after_batch_examples)
     interp = Interpreter(theorem, max_steps=opts.max_steps, families=opts.families)
     count = {"examples": 0, "first": 0, "near": 0}
+    blocked: Counter[str] = Counter()  # why runs were rejected, for the note when all were
 
     def one_run(data) -> None:
         count["examples"] += 1
         chooser = Recording(HypothesisChooser(data))
         try:
             run = interp.run(chooser)
-        except (Rejected, Blocked, ArithmeticError):  # overflow: values beyond the models' scale
+        except (Rejected, Blocked, ArithmeticError) as exc:  # overflow: values beyond the models' scale
+            blocked[_why_blocked(exc)] += 1
             reject()
         worst = run.worst
         if math.isfinite(worst):
@@ -187,9 +207,8 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
                              found.run, check, found.script)
     except Unsatisfiable:  # every draw was rejected: nothing was run, which is not a pass
         return Falsification(theorem.name, False, 0, time.perf_counter() - start,
-                             note=f"no run could be started in {count['examples']} tries: every drawn "
-                             "start state missed the assumptions or blocked at once (are the "
-                             "assumptions satisfiable?)")
+                             note=f"no run reached the end in {count['examples']} tries: "
+                             f"{_blocked_note(blocked)}")
     return Falsification(theorem.name, False, batched + count["examples"], time.perf_counter() - start)
 
 

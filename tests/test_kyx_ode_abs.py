@@ -65,6 +65,12 @@ def test_the_sign_is_chosen_before_the_flow_and_pinned_in_its_domain():
     # v < 1 keeps 2 - v above 1, so min(1, 2 - v) = 1: v rises from 0 at rate 1
     ("v = 0 -> [{v' = min(1, 2 - v) & v < 1}] v >= 0", lambda v: min(1.0, 2 - v), 0.0,
      lambda v: v >= -1e-9),
+    # nested: x > 1 keeps |x| - 1 = x - 1 > 0; the outer side condition may use that the inner
+    # sign is 1 or -1 (a red team found it unknown when the sign could be any real)
+    ("x = 2 -> [{x' = -abs(abs(x) - 1) & x > 1}] x <= 2", lambda x: -abs(abs(x) - 1), 2.0,
+     lambda x: x <= 2 + 1e-9),
+    # min(v, v) is v: no sign, no side condition
+    ("v = 0 -> [{v' = min(v, v) + 1}] v >= 0", lambda v: min(v, v) + 1, 0.0, lambda v: v >= -1e-9),
 ])
 def test_claims_inside_one_case_are_proved_and_scipy_agrees(claim, rhs, start, holds):
     assert prove(claim).verdict == "proved"
@@ -84,6 +90,8 @@ def test_a_constant_under_abs_needs_no_side_condition():
     ("x = 1 -> [{x' = abs(x) & x > 0}] x <= 2", lambda x: abs(x), 1.0, lambda x: x > 2),
     # v < 1/2 keeps max(1, v) = 1: v = t passes 1/4
     ("v = 0 -> [{v' = max(1, v) & v < 1/2}] v <= 1/4", lambda v: max(1.0, v), 0.0, lambda v: v > 0.25),
+    # x = 1 + e^t: the nested twin of the proved claim, growing
+    ("x = 2 -> [{x' = abs(abs(x) - 1) & x > 1}] x <= 2", lambda x: abs(abs(x) - 1), 2.0, lambda x: x > 2),
 ])
 def test_false_claims_get_a_validated_counterexample_that_scipy_repeats(claim, rhs, start, bound):
     assert prove(claim).verdict != "proved"

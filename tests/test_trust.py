@@ -191,6 +191,17 @@ def test_falsify_with_unsatisfiable_assumptions_says_no_run_could_start():
     assert not found.found and "assumptions satisfiable" in found.note
 
 
+def test_falsify_names_the_test_that_stops_every_run():
+    # [flow](t >= 2 -> P) reads as [flow; ?t >= 2]P, and the domain keeps t below ln 2: every run
+    # stops at the test. The note used to blame the assumptions, which hold at x = -1, t = 0.
+    from certiloop.falsify.search import Options, falsify
+
+    x, t = Reals("x t")
+    theorem = Theorem("u.test", And(x == -1, t == 0), ode({x: 1 - x, t: 1}, x < 0) >> guard(t >= 2), x >= 1)
+    found = falsify(theorem, Options(max_examples=50, database=None))
+    assert not found.found and "test t >= 2 failed" in found.note and "assumptions" not in found.note
+
+
 def test_falsify_follows_a_flow_up_to_its_finite_escape_time():
     from certiloop.falsify.search import Options, falsify
 

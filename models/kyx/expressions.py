@@ -376,6 +376,8 @@ class Builder:
         and max(a, b) = (a + b + |a - b|)/2."""
         if any(a.sort == BOOL for a in args):
             raise self.fail(where, f"{kind} takes terms, not formulas")
+        if kind != "abs" and args[0].same(args[1]):  # min(a, a) = a: no sign to keep
+            return args[0]
         a = args[0] if kind == "abs" else args[0] - args[1]
         written = f"{kind}({', '.join(str(self.shown(x)) for x in args)})"
         magnitude = self._signed(a, where, written)
@@ -670,7 +672,7 @@ class Builder:
         (lifting.py, `signed`). If the flow moves a, the domain keeps g*a > 0, and the side
         condition `domain -> a != 0` must be proved (after the roots' statements, whose pins a
         may read)."""
-        pins = []
+        pins, known = [], []
         for a, g, moving, call in signs:
             shown = self.shown(a)
             positive = (a > 0) if moving else (a >= 0)
@@ -678,8 +680,9 @@ class Builder:
                                  (f"{call}: {shown} < 0", seq(assign(g, -1), test(a < 0)))))
             if moving:
                 self.lift_conditions.append((f"the flow keeps `{shown}` != 0 ({call} keeps one sign)",
-                                             Implies(And(domain, *pins), cmp("!=", a, 0))))
-                pins.append(g * a > 0)  # the later signs' side conditions may assume it
+                                             Implies(And(domain, *known), cmp("!=", a, 0))))
+                pins.append(g * a > 0)
+            known += [g * a > 0, cmp("==", g * g, 1)] if moving else [cmp("==", g * g, 1)]  # for later signs
         return prefix, And(domain, *pins) if pins else domain
 
     def _annotations_with_olds(self, notes: list[Tree], env) -> tuple[list[Node], dict[str, Node]]:
