@@ -217,3 +217,15 @@ def test_a_float_only_run_does_not_fail_the_gate_of_a_proved_model():
                                                                   "violated": "p <= 0"})
     assert not entry_with(f"{FLOAT_ONLY}: violated by 0.0142 (not validated)").problems
     assert entry_with("replayed in exact rational arithmetic").problems
+
+
+def test_a_definition_wrapping_the_root_is_read_after_the_flow():
+    # r(x, y) after the flow is the lifted root: its own variable, not a substitution clash
+    definitions = "Definitions Real r(Real a, Real b) = (a^2 + b^2)^(1/2); End."
+    flow = "{x' = v, y' = w, v' = -x/r(x,y)^3, w' = -y/r(x,y)^3 & x^2 + y^2 > 0}"
+    assert prove(f"x = 1 & y = 0 -> [{flow}] r(x,y) > 0", definitions=definitions).verdict == "proved"
+    # false: the circular orbit from (1, 0) at speed 1 keeps r = 1 (v = 0, w = 1 gives it)
+    sol = solve_ivp(lambda _t, z: kepler(*z), (0, 3), [1, 0, 0, 1], rtol=1e-10, atol=1e-12)
+    assert all(abs(math.hypot(z[0], z[1]) - 1) < 1e-6 for z in sol.y.T)
+    assert prove(f"x = 1 & y = 0 & v = 0 & w = 1 -> [{flow}] r(x,y) > 1",
+                 definitions=definitions).verdict != "proved"

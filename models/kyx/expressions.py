@@ -246,7 +246,9 @@ class Builder:
                                    f"mentions `{clash[0]}`, which the definition binds (a quantifier or "
                                    "a program writing it): use another name")
         around = set().union(*self.binders) if self.binders else set()
-        if clash := sorted((self.symbols(out) - passed - set(d.params)) & around):
+        # a name made up here (a lifted root's variable, a sign) stands for what the arguments
+        # give, never for a symbol of the definition's own
+        if clash := sorted((self.symbols(out) - passed - set(d.params) - self.made) & around):
             raise self.fail(t, f"substitution clash: the definition of `{name}` mentions `{clash[0]}`, which "
                                "is bound where it is used (by a quantifier or a program writing it): "
                                "pass it as an argument")
