@@ -25,7 +25,9 @@ with their annotation or else the box's own postcondition as invariant. A diamon
 whose program holds a loop is proved by the runs with at most DIAMOND_ITERATIONS iterations of
 each loop (and a flow without a polynomial solution by its run of duration 0): <a'>P -> <a>P
 for runs a' among a's, so a proof proves it; a failure is unknown (rule "unrolled"), as more
-iterations may reach P.
+iterations may reach P. A diamond whose postcondition must itself be executed (<a>[b*]P) is
+proved by the one run of a that stays put (`_stay`): assignments done, tests and domains
+proved where they stand, loops run zero times.
 """
 
 from __future__ import annotations
