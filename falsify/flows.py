@@ -57,6 +57,9 @@ class Flow:
         self.exact = compiler.exact
         self.names = [v.name for v in ode.variables]
         self.rhs = [compiler(f) for _, f in ode.eqs]
+        moving = set(self.names)
+        self._denominators = [compiler(d) for d in _denominators(f for _, f in ode.eqs)
+                              if set(free_vars(d)) & moving]
         # the domain holds at the start in full; along the flow, the equalities it keeps by
         # itself need no watching (a lifted root's s*s = e, which rounding would break at once)
         along = conserved_apart(ode)[0]
@@ -222,12 +225,13 @@ class Flow:
         def escapes(_t, y):  # a finite escape time: stop where a value leaves the models' scale
             return ESCAPE - float(np.max(np.abs(y)))
         escapes.terminal, escapes.direction = True, -1
+        poles = [_pole_event(d, put) for d in self._denominators]  # no run passes x = 0 in x' = 1/x
         y0 = [float(state[n]) for n in names]
         try:
             with np.errstate(all="ignore"):  # a blow-up is detected below, not printed
                 from scipy.integrate import solve_ivp  # lazily: importing scipy costs 0.35 s per process
 
-                sol = solve_ivp(f, (0.0, horizon), y0, events=(leaves, escapes), dense_output=True,
+                sol = solve_ivp(f, (0.0, horizon), y0, events=(leaves, escapes, *poles), dense_output=True,
                                 rtol=RTOL, atol=ATOL)
         except (ValueError, OverflowError) as exc:  # event location on a blown-up solution
             raise Blocked(f"integration failed: {exc}") from None
@@ -247,7 +251,7 @@ class Flow:
 
     def _check_exact(self, state, tau) -> None:
         """The domain must hold along the whole flow, decided exactly."""
-        from certiloop.models.lang.terms import Var
+        from certiloop.models.lang.terms import And, Or, Var
         from certiloop.proofs.core.exact import truth
         from certiloop.proofs.core.odes import holds_along
 
@@ -256,11 +260,38 @@ class Flow:
         if tau < 0:
             raise Blocked("negative ODE duration")
         if self._along is None:
-            self._along = holds_along(self.ode.domain, self.symbolic, Var("tau@flow"), Var(self.s_name))
+            # the domain, and the right-hand side as written defined (x' = x/x): each denominator
+            # keeps one sign all along (it is continuous: nonzero on [0, tau] means that)
+            end, s = Var("tau@flow"), Var(self.s_name)
+            signed = [Or(holds_along(d > 0, self.symbolic, end, s), holds_along(d < 0, self.symbolic, end, s))
+                      for d in _denominators(f for _, f in self.ode.eqs)]
+            self._along = And(holds_along(self.ode.domain, self.symbolic, end, s), *signed)
         env = exact_view(state)
         env["tau@flow"] = tau
         if truth(self._along, env) is not True:
             raise Blocked("the evolution domain does not provably hold along the flow")
+
+
+def _denominators(terms) -> list[Node]:
+    """Every term some term here divides by, as written."""
+    out: list[Node] = []
+
+    def walk(n: Node) -> None:
+        if n.op == "/" and not any(d.same(n.args[1]) for d in out):
+            out.append(n.args[1])
+        for a in n.args:
+            walk(a)
+    for t in terms:
+        walk(t)
+    return out
+
+
+def _pole_event(denominator, put):
+    """A terminal event where the denominator changes sign: the flow is not defined there."""
+    def crosses(_t, y):
+        return float(denominator(put(y)))
+    crosses.terminal, crosses.direction = True, 0
+    return crosses
 
 
 def conserved_apart(ode: ODE) -> tuple[Node, tuple[Node, ...]]:
@@ -269,11 +300,15 @@ def conserved_apart(ode: ODE) -> tuple[Node, tuple[Node, ...]]:
     equality stays on it for as long as it is defined, so only the rest must be watched."""
     from certiloop.models.lang.terms import And, ModelError
     from certiloop.proofs.core.odes import lie_derivative
+    from certiloop.proofs.core.wd import has_division
 
     parts = ode.domain.args if ode.domain.op == "and" else (ode.domain,)
     kept, conserved = [], []
     for part in parts:
-        if part.op == "cmp" and part.payload == "==" and part.args[0].sort.is_numeric:
+        # not one that divides: its derivative is simplified (x/x = 1 has derivative 0), but it
+        # is false where its denominator is 0, which a run may reach
+        equality = part.op == "cmp" and part.payload == "==" and part.args[0].sort.is_numeric
+        if equality and not has_division(part):
             try:
                 rate = lie_derivative(part.args[0] - part.args[1], ode)
             except ModelError:

@@ -64,14 +64,19 @@ class EnclosingInterpreter(Interpreter):
             self.why = str(exc)
             raise Uncertain(f"no enclosure of {p}: {exc}") from None
         trial = dict(s)
-        for swept in box.path:  # the domain must hold all along: on every swept box
+        # all along, on every swept box: the domain holds, and the right-hand side as written is
+        # defined (the enclosed system is sympy's form of it, where x/x is 1 and a pole can vanish)
+        for swept in box.path:
             trial.update({n: IntervalValue(x) for n, x in zip(system.names, swept)})
             try:
                 inside = flow.along_holds(trial)
-            except Uncertain:
+                for f in flow.rhs if inside else ():
+                    f(trial)
+            except (Blocked, ArithmeticError):  # Uncertain, a division by a box holding 0
                 inside = False
             if not inside:
-                self.why = f"the evolution domain {p.domain} does not certainly hold along the enclosure"
+                self.why = (f"the evolution domain {p.domain} does not certainly hold along the enclosure, "
+                            "or the right-hand side may divide by 0 there")
                 raise Blocked(self.why)
         self.steps += box.steps
         self.width = max(self.width, box.width)
