@@ -16,7 +16,8 @@ import numpy as np
 from certiloop.falsify.evaluate import Blocked, Compiler, margin
 from certiloop.falsify.vectorise import Unsupported, VCompiler
 from certiloop.models.lang.programs import ODE
-from certiloop.models.lang.terms import Node, free_vars
+from certiloop.models.lang.terms import And, Node, free_vars
+from certiloop.proofs.core.wd import denominators
 from certiloop.proofs.core.wp import flow_solution
 
 GRID = 64  # samples when locating where a closed-form flow leaves its domain
@@ -58,8 +59,8 @@ class Flow:
         self.names = [v.name for v in ode.variables]
         self.rhs = [compiler(f) for _, f in ode.eqs]
         moving = set(self.names)
-        self._denominators = [compiler(d) for d in _denominators(f for _, f in ode.eqs)
-                              if set(free_vars(d)) & moving]
+        dividing = {d.key: d for _, f in ode.eqs for d in denominators(f) if set(free_vars(d)) & moving}
+        self._denominators = [compiler(d) for d in dividing.values()]
         # the domain holds at the start in full; along the flow, the equalities it keeps by
         # itself need no watching (a lifted root's s*s = e, which rounding would break at once)
         along = conserved_apart(ode)[0]
@@ -251,39 +252,21 @@ class Flow:
 
     def _check_exact(self, state, tau) -> None:
         """The domain must hold along the whole flow, decided exactly."""
-        from certiloop.models.lang.terms import And, Or, Var
+        from certiloop.models.lang.terms import Var
         from certiloop.proofs.core.exact import truth
-        from certiloop.proofs.core.odes import holds_along
+        from certiloop.proofs.core.odes import runs_along
 
         if self.symbolic is None:
             raise Inexact(f"the ODE {self.ode} has no closed-form solution")
         if tau < 0:
             raise Blocked("negative ODE duration")
         if self._along is None:
-            # the domain, and the right-hand side as written defined (x' = x/x): each denominator
-            # keeps one sign all along (it is continuous: nonzero on [0, tau] means that)
-            end, s = Var("tau@flow"), Var(self.s_name)
-            signed = [Or(holds_along(d > 0, self.symbolic, end, s), holds_along(d < 0, self.symbolic, end, s))
-                      for d in _denominators(f for _, f in self.ode.eqs)]
-            self._along = And(holds_along(self.ode.domain, self.symbolic, end, s), *signed)
+            # the domain, and the right-hand side as written defined all along (x' = x/x)
+            self._along = runs_along(self.ode, self.symbolic, Var("tau@flow"), Var(self.s_name))
         env = exact_view(state)
         env["tau@flow"] = tau
         if truth(self._along, env) is not True:
             raise Blocked("the evolution domain does not provably hold along the flow")
-
-
-def _denominators(terms) -> list[Node]:
-    """Every term some term here divides by, as written."""
-    out: list[Node] = []
-
-    def walk(n: Node) -> None:
-        if n.op == "/" and not any(d.same(n.args[1]) for d in out):
-            out.append(n.args[1])
-        for a in n.args:
-            walk(a)
-    for t in terms:
-        walk(t)
-    return out
 
 
 def _pole_event(denominator, put):
@@ -298,7 +281,7 @@ def conserved_apart(ode: ODE) -> tuple[Node, tuple[Node, ...]]:
     """The domain without its equalities `a = b` that the flow conserves (the derivative of
     a - b along it is identically 0), and those equalities. A solution that starts on such an
     equality stays on it for as long as it is defined, so only the rest must be watched."""
-    from certiloop.models.lang.terms import And, ModelError
+    from certiloop.models.lang.terms import ModelError
     from certiloop.proofs.core.odes import lie_derivative
     from certiloop.proofs.core.wd import has_division
 

@@ -28,7 +28,7 @@ from certiloop.models.lang.terms import (
     substitute,
 )
 from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
-from certiloop.proofs.core.wd import has_division
+from certiloop.proofs.core.wd import denominators, has_division
 
 _SOLUTIONS: dict[tuple, dict[str, Node] | None] = {}
 
@@ -148,11 +148,22 @@ _MAX_ALONG = 5_000
 _TAU = Real("tau@along")  # users cannot write '@'
 
 
+def runs_along(ode: ODE, solution: dict[str, Node], tau: Node, s: Node) -> Node:
+    """Is following the solution for τ a run of the ODE: its domain holds all along, and its
+    right-hand side as written is defined all along (x' = x/x has the solution x0 + s, but no
+    run through x = 0, where x' is undefined)?"""
+    dividing = {d.key: d for _, f in ode.eqs for d in denominators(f)}
+    rates = [_keeps_sign(d, solution, tau, s) for d in dividing.values()]
+    return And(holds_along(ode.domain, solution, tau, s), *rates)
+
+
 def holds_along(domain: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
     """∀s∈[0,τ] domain(x(s)), as a quantifier-free formula when it can be done exactly.
 
     Atoms affine in s hold on [0,τ] iff they hold at both ends; quadratic atoms also need
-    the vertex checked; anything else keeps the quantifier (exact, but harder for z3).
+    the vertex checked; anything else keeps the quantifier (exact, but harder for z3). An
+    atom that divides also needs each denominator nonzero all along: sympy cancels x/x to 1
+    before the degree is read, and the domain x/x >= 1 holds on no run through x = 0.
     """
     key = (domain.key, tuple(sorted((n, x.key) for n, x in solution.items())), s.key)
     got = _ALONG.get(key)
@@ -167,6 +178,11 @@ def _holds_along(domain: Node, solution: dict[str, Node], tau: Node, s: Node) ->
     conj = domain.args if domain.op == "and" else (domain,)
     parts = []
     for atom in conj:
+        # a run holds every conjunct at every point, so each is evaluated all along (the
+        # left-to-right reading asks no less); an atom that is not a comparison keeps its
+        # quantifier, and with it its divisions
+        if atom.op == "cmp":
+            parts += [_keeps_sign(d, solution, tau, s) for d in denominators(atom)]
         exact = _atom_along(atom, solution, tau, s)
         if exact is None:
             body = Implies(And(const(0) <= s, s <= tau), substitute(atom, solution))
@@ -174,6 +190,19 @@ def _holds_along(domain: Node, solution: dict[str, Node], tau: Node, s: Node) ->
         else:
             parts.append(exact)
     return And(*parts)
+
+
+def _keeps_sign(d: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
+    """d(x(s)) != 0 for all s in [0,τ]: as d is continuous along the flow, d > 0 all along or
+    d < 0 all along."""
+    return Or(*(_along_atom_or_quantified(cmp(op, d, 0), solution, tau, s) for op in (">", "<")))
+
+
+def _along_atom_or_quantified(atom: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
+    exact = _atom_along(atom, solution, tau, s)
+    if exact is not None:
+        return exact
+    return ForAll(s, Implies(And(const(0) <= s, s <= tau), substitute(atom, solution)))
 
 
 def _atom_along(atom: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node | None:

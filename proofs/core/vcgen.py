@@ -70,8 +70,8 @@ from certiloop.proofs.core.odes import (
     OdeStep,
     atom_premise,
     default_chain,
-    holds_along,
     polynomial_solution,
+    runs_along,
     solvable,
 )
 from certiloop.proofs.core.wd import defined, has_division
@@ -432,7 +432,7 @@ class VCGen:
             k(after.assume(after.value(p.domain)).via("ODE dW", "dW"))
             return
         tau = self.names.fresh("t", why="ODE duration")
-        along = holds_along(p.domain, sol, tau, s)
+        along = runs_along(p, sol, tau, s)
         end = {name: st.value(substitute(x, {s.name: tau})) for name, x in sol.items()}
         k(st.assume(tau >= 0, st.value(along)).bind(end).at("ODE solve"))
 

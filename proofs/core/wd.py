@@ -67,6 +67,19 @@ def _left_to_right(args, reached) -> Node:
     return And(*(Implies(reached(args[:k]), defined(a)) for k, a in enumerate(args)))
 
 
+def denominators(f: Node) -> list[Node]:
+    """The denominators of f's divisions that are not nonzero constants, each once."""
+    out: list[Node] = []
+
+    def walk(n: Node) -> None:
+        if _risky(n) and not any(d.same(n.args[1]) for d in out):
+            out.append(n.args[1])
+        for a in n.args:
+            walk(a)
+    walk(f)
+    return out
+
+
 def has_division(f: Node) -> bool:
     """Does f divide by anything but a nonzero constant?"""
     return _risky(f) or any(has_division(a) for a in f.args)

@@ -31,7 +31,7 @@ from certiloop.models.lang.terms import (
     store,
     substitute,
 )
-from certiloop.proofs.core.odes import holds_along, polynomial_solution
+from certiloop.proofs.core.odes import polynomial_solution, runs_along
 
 
 def has_modality(f: Node) -> bool:
@@ -164,7 +164,7 @@ def _flow(p: ODE, names, unsolvable: str):
             "so it cannot be used inside a formula's modality"
         )
     tau = names.fresh("t", why="ODE duration")
-    along = holds_along(p.domain, sol, tau, s)
+    along = runs_along(p, sol, tau, s)
     end = {name: substitute(x, {s.name: tau}) for name, x in sol.items()}
     return tau, along, end
 

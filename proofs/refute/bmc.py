@@ -30,7 +30,7 @@ from certiloop.models.lang.terms import (
     store,
     substitute,
 )
-from certiloop.proofs.core.odes import holds_along
+from certiloop.proofs.core.odes import runs_along
 from certiloop.proofs.core.wp import expand_modalities, flow_solution
 
 
@@ -115,7 +115,7 @@ class Encoder:
             return [FALSE], env
         tau = self.names.fresh("t", None, "ODE duration")
         self.record[id(p)] = tau.payload
-        cs = [tau >= 0, substitute(holds_along(p.domain, sol, tau, s), env)]
+        cs = [tau >= 0, substitute(runs_along(p, sol, tau, s), env)]
         new = dict(env)
         for name, x in sol.items():
             value = substitute(substitute(x, {s.payload: tau}), env)

@@ -32,7 +32,7 @@ from certiloop.models.lang.terms import BOOL, TRUE, And, Implies, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.exact import Undecided, evaluate, index_value, truth
 from certiloop.proofs.core.interval import show_value
-from certiloop.proofs.core.odes import holds_along
+from certiloop.proofs.core.odes import runs_along
 from certiloop.proofs.core.solver import ArrayValue, check_valid
 from certiloop.proofs.core.vcgen import Names, executed
 from certiloop.proofs.core.verdicts import _exactness, judge, readable
@@ -251,7 +251,7 @@ class Replay:
             tau = Var(name)
             duration = self.model.get(name, Fraction(0))
             env = dict(state, **{name: duration})
-            if truth(holds_along(p.domain, sol, tau, s), env) is not True:
+            if truth(runs_along(p, sol, tau, s), env) is not True:
                 return None
             new = dict(state)
             for var, x in sol.items():
