@@ -293,10 +293,49 @@ def default_chain(ode: ODE) -> tuple[OdeStep, ...]:
     """The annotated invariants atom by atom, in the author's order: a Darboux identity
     where one exists (complete for that atom), else dI."""
     steps = []
-    for atom in (a for inv in ode.invariants for a in conjuncts(inv)):
+    for atom in annotated_atoms(ode):
         exact, _ = cofactors(atom, ode)
         steps.append(OdeStep(atom, "dbx", exact) if exact is not None else OdeStep(atom))
     return tuple(steps)
+
+
+def annotated_atoms(ode: ODE) -> list[Node]:
+    """The author's invariants atom by atom. KeYmaera X selects an invariant for one of the
+    flows a program reaches by a guard on its differential symbols, `(v'=-g+a*v^2 -> J)`,
+    which reads `-g+r*v^2 = -g+a*v^2 -> J` along the flow. Such a guard mentions the flow's
+    variables, so it is replaced by the condition that it holds identically along the flow:
+    every coefficient of the difference, as a polynomial in the flow's variables, is 0
+    (`r = a`). That condition is constant along the flow and implies the original one, so the
+    atom is weaker than the author's; it is a hint all the same, proved like any other."""
+    return [_selected(a, ode) for inv in ode.invariants for a in conjuncts(inv)]
+
+
+def _selected(atom: Node, ode: ODE) -> Node:
+    guard, core = guarded(atom)
+    names = {v.payload for v in ode.variables}
+    if guard is None or not set(free_vars(guard)) & names:
+        return atom
+    equations = conjuncts(guard)
+    if not all(c.op == "cmp" and c.payload == "==" and c.args[0].sort.is_numeric for c in equations):
+        return atom  # the core refuses it, naming the guard
+    table = SympyTable()
+    moving = [table.symbol(v) for v in ode.variables]
+    conditions: list[Node] = []
+    for c in equations:
+        numerator, _ = sympy.fraction(sympy.together(to_sympy(c.args[0] - c.args[1], table)))
+        numerator = sympy.expand(numerator)
+        if numerator == 0:
+            continue
+        try:
+            coefficients = sympy.Poly(numerator, *moving).coeffs()
+        except sympy.polys.polyerrors.PolynomialError:
+            return atom
+        conditions += [cmp("==", from_sympy(k, table), 0) for k in coefficients]
+    if any(k.args[0].op == "const" for k in conditions):
+        # never identically (`x = 0 -> v = 0`): a guard on the state, not a choice of flow,
+        # which the core refuses, naming it
+        return atom
+    return Implies(And(*conditions), core)
 
 
 def _modal(f: Node) -> bool:

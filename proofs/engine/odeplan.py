@@ -26,16 +26,18 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 from certiloop.models.lang.nesting import positive_form
-from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq
+from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq, children
 from certiloop.models.lang.terms import TRUE, And, Implies, ModelError, Node, Not, cmp, free_vars
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.instantiate import has_quantifier
 from certiloop.proofs.core.odes import (
     OdeStep,
+    annotated_atoms,
     atom_polynomial,
     atom_premise,
     cofactors,
     conjuncts,
+    guarded,
     rational_cofactor,
     solvable,
 )
@@ -88,6 +90,21 @@ def theorem_odes(theorem: Theorem) -> list[ODE]:
 
     walk(theorem.guarantee)
     return list(found.values())
+
+
+def around(theorem: Theorem, ode: ODE) -> Node:
+    """The invariants of the program's loops whose body holds the ODE: what a flow that ends
+    a loop's body must give."""
+    found: list[Node] = []
+
+    def walk(q: Program) -> None:
+        if isinstance(q, Loop) and q.invariant is not None and ode.key in {o.key for o in odes_of(q.body)}:
+            found.append(q.invariant)
+        for part in children(q):
+            walk(part)
+
+    walk(theorem.program)
+    return And(*found)
 
 
 def goals(f: Node) -> Node:
@@ -148,10 +165,15 @@ def candidates(theorem: Theorem, ode: ODE) -> tuple[list[Node], list[Node]] | No
         # The guarantee's join only after the author's have settled: a failing link is retried
         # at the chain's end, and behind more links its premise is a new check, which for an
         # author's atom of degree 5 costs a whole budget again (Bhatia Szego: 22 s, not 43 s)
-        annotated = [a for inv in ode.invariants for a in conjuncts(inv)]
+        annotated = annotated_atoms(ode)
         seen = {a.key for a in annotated}
-        extra = [a for a in _atoms(guarantee)
+        extra = [a for a in _atoms(And(guarantee, around(theorem, ode)))
                  if a.key not in seen and set(free_vars(a)) & names and _usable(a, ode)]
+        # an author who selects invariants by the flow they hold for (`r = p -> J`) splits the
+        # flow into cases: the guarantee's atoms are tried in each case too (Parachute: v > -3
+        # holds once the parachute is open, r = p, and is a Darboux inequality only there)
+        cases = list({g.key: g for g in (guarded(a)[0] for a in annotated) if g is not None}.values())
+        extra += [Implies(case, a) for a in extra for case in cases]
         return annotated, list({a.key: a for a in extra}.values())
     if solvable(ode):
         return None
