@@ -394,8 +394,9 @@ def written(p: Program) -> dict[str, Node]:
     return out
 
 
-def program_symbols(p: Program) -> dict[str, Node]:
-    """Every symbol a program mentions (read or written), by name."""
+def program_symbols(p: Program, annotations: bool = True) -> dict[str, Node]:
+    """Every symbol a program mentions (read or written), by name; with annotations=False,
+    only those its runs read or write (not the invariants, which are proof hints)."""
     out: dict[str, Node] = {}
     formulas: list[Node] = []
     if isinstance(p, Assign):
@@ -406,13 +407,13 @@ def program_symbols(p: Program) -> dict[str, Node]:
         formulas = [p.cond]
     elif isinstance(p, ODE):
         out.update((v.name, v) for v in p.variables)
-        formulas = [f for _, f in p.eqs] + [p.domain, *p.invariants]
-    elif isinstance(p, Loop) and p.invariant is not None:
+        formulas = [f for _, f in p.eqs] + [p.domain, *(p.invariants if annotations else ())]
+    elif isinstance(p, Loop) and p.invariant is not None and annotations:
         formulas = [p.invariant]
     for f in formulas:
         out.update(free_vars(f))
     for q in children(p):
-        out.update(program_symbols(q))
+        out.update(program_symbols(q, annotations))
     return out
 
 

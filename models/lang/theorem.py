@@ -68,6 +68,12 @@ class Theorem:
         body holds a loop: the core proves the body with v := term, evaluated where the
         quantifier stands, e.g. `("del", eps)` for stability's `\\exists del`. Any term is sound
         (a bad one only fails to prove); the prover also tries its own.
+    ghosts: (name, fact) pairs, proof hints: fresh constants the proof may use, each with a
+        fact about it and the constants before it, e.g. `("l", l^2 - b*l - a = 0 & 2*l <= b)`
+        for an eigenvalue of a linear flow. The core proves `assumptions -> \\exists l fact`
+        (after the earlier facts) and then assumes the fact; sound because the name is
+        fresh: the assumptions, the guarantee and the program's statements do not mention it
+        (its invariants may; they are hints too).
     """
 
     name: str
@@ -90,6 +96,8 @@ class Theorem:
     defined_if: tuple[tuple[str, Node], ...] = ()  # stricter than needed: a failure shows nothing
     # Proof hints: a term for each \exists v around a loop in the guarantee (see nesting.py)
     witnesses: tuple[tuple[str, Node], ...] = ()
+    # Proof hints: fresh constants, each with a fact the core proves satisfiable first
+    ghosts: tuple[tuple[str, Node], ...] = ()
 
     def __post_init__(self) -> None:
         if self.expected not in VERDICTS:
@@ -100,6 +108,7 @@ class Theorem:
         object.__setattr__(self, "well_defined", tuple((str(w), formula(f)) for w, f in self.well_defined))
         object.__setattr__(self, "defined_if", tuple((str(w), formula(f)) for w, f in self.defined_if))
         object.__setattr__(self, "witnesses", tuple((str(v), term(t)) for v, t in self.witnesses))
+        object.__setattr__(self, "ghosts", tuple((str(v), formula(f)) for v, f in self.ghosts))
         check_well_formed(self)
 
     @property
@@ -122,6 +131,7 @@ class Theorem:
         if self.defined_if:
             conditions += (("defined_if", tuple((w, f.key) for w, f in self.defined_if)),)
         conditions += (("witnesses", tuple((v, t.key) for v, t in self.witnesses)),) if self.witnesses else ()
+        conditions += (("ghosts", tuple((v, f.key) for v, f in self.ghosts)),) if self.ghosts else ()
         return repr((
             "certiloop-theorem/1", self.name, self.expected, self.assumptions.key, self.program.key,
             self.guarantee.key, tuple(sorted((k, v.key) for k, v in self.abbreviations.items())),
@@ -275,6 +285,23 @@ def _check_odes(p: Program, where: str) -> None:
         _check_odes(q, where)
 
 
+def _check_ghosts(t: Theorem, where: str) -> None:
+    """Each ghost is a fresh name: the claim and the program's runs never mention it (a proof
+    that assumes a fact about it then holds for the claim, whatever value it takes)."""
+    claim = (set(free_vars(t.assumptions)) | set(free_vars(t.guarantee))
+             | set(program_symbols(t.program, annotations=False)) | {c.payload for c in t.constants}
+             | {n for s in t.scenarios for n in free_vars(s)}
+             | {n for v in t.abbreviations.values() for n in free_vars(v)} | set(t.abbreviations))
+    seen: set[str] = set()
+    for name, fact in t.ghosts:
+        if not name.isidentifier() or name in claim or name in seen:
+            raise ModelError(f"{where}: the ghost `{name}` must be a fresh name (the claim or an earlier "
+                             "ghost uses it)")
+        if name not in free_vars(fact):
+            raise ModelError(f"{where}: the fact about the ghost `{name}` does not mention it: `{fact}`")
+        seen.add(name)
+
+
 def check_well_formed(t: Theorem) -> None:
     where = f"theorem {t.name}"
     if not isinstance(t.name, str) or not t.name:
@@ -290,6 +317,7 @@ def check_well_formed(t: Theorem) -> None:
         if not isinstance(c, Node) or c.op != "var":
             raise ModelError(f"{where}: constants must be symbols, got `{c}`")
     _check_names_and_sorts(t, where)
+    _check_ghosts(t, where)
     _check_term_sorts(t, where)
     _check_odes(t.program, where)
     prog_syms = program_symbols(t.program)

@@ -55,6 +55,7 @@ from certiloop.models.lang.terms import (
     REAL,
     TRUE,
     And,
+    Exists,
     Implies,
     ModelError,
     Node,
@@ -182,6 +183,11 @@ class VCGen:
         for what, condition in t.defined_if:  # stricter than needed: failing shows nothing
             self.emit(State((), {}, (), ("guarded",)), condition, f"well-defined: {what}", "defined")
         start = State((assumptions,), {}, ())
+        for name, fact in t.ghosts:  # fresh constants (theorem.py checks): one exists, then any
+            ghost, at = free_vars(fact)[name], start.via(f"ghost {name}: {fact}", "ghost")
+            self.require_defined(at, f"the fact about the ghost {name}", fact, annotation=True)
+            self.emit(at, Exists((ghost,), fact), "exists")
+            start = start.assume(fact)
         self.exec(t.program, start, self.postcondition)
         return self.obligations
 
@@ -469,7 +475,7 @@ PREMISE_NAMES = {"nonzero": "never zero in the domain"}
 # which incomplete rule to blame when several lie on a path: an ODE that lost information
 # explains a failure downstream better than the loop around it
 BLAME_ORDER = ("dW", "dI", "dI-init", "dC", "guarantee-as-invariant", "loop-invariant", "loop-init",
-               "witness", "unrolled", "guarded")
+               "witness", "ghost", "unrolled", "guarded")
 DIAMOND_ITERATIONS = ITERATIONS  # a loop inside a diamond: the runs with at most this many iterations
 
 
