@@ -132,3 +132,38 @@ def test_a_ghost_hint_that_is_wrong_fails_to_prove():
     wrong = Theorem("wrong", underdamped, claim, x >= 0,
                     ghosts=(("l", And(cmp("==", root * root - b * root - a, 0), 2 * root <= b)),))
     assert prove(wrong).verdict != "proved"
+
+
+# ---------------------------------------------------------------------------- equilibria as witnesses
+
+EQUILIBRIUM = """ArchiveEntry "{name}"
+  Definitions Real c; End.
+  ProgramVariables Real x; End.
+  Problem {assume} -> \\exists f (x = f -> [{{x' = {rate}}}] x = f) End.
+End."""
+
+
+def equilibrium(assume: str, rate: str):
+    (entry,) = read_entries(EQUILIBRIUM.format(name=f"{assume}: {rate}", assume=assume, rate=rate))
+    assert entry.error is None, entry.error
+    return entry.theorem
+
+
+@pytest.mark.parametrize("assume, rate, root", [
+    ("c <= 0", "c + x^2", lambda c: -np.sqrt(-c)),
+    ("true", "x^3 - c", np.cbrt),  # a real root for every c
+])
+def test_an_equilibrium_is_the_witness(assume, rate, root):
+    result = prove(equilibrium(assume, rate))
+    assert result.verdict == "proved", result
+    assert "a ghost with" in result.reason
+    f = {"c + x^2": lambda x, c: c + x * x, "x^3 - c": lambda x, c: x ** 3 - c}[rate]
+    for c in (-4.0, -0.25, 0.0) if assume != "true" else (-3.0, 0.0, 2.0):
+        assert abs(f(root(c), c)) < 1e-12  # the witness: a value where the flow stands still
+
+
+def test_no_equilibrium_no_proof():
+    """With c > 0, x' = c + x^2 > 0 moves every start: the claim is false, and the ghost
+    with c + s^2 = 0 cannot be shown to exist."""
+    result = prove(equilibrium("c > 0", "c + x^2"))
+    assert result.verdict != "proved"

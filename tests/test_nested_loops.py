@@ -127,13 +127,13 @@ def test_nested_boxes_take_their_own_postcondition_as_invariant():
 def test_an_exists_without_a_working_witness_is_not_proved():
     # d must exceed every value of x, which grows without bound: false for every d
     claim = "x = 0 -> \\exists d (d > 0 & [{x:=x+1;}*]x < d)"
-    assert [str(dict(o)["d"]) for o in witness_options(entry(claim))] == ["1"]  # no \forall around it
+    assert [str(dict(o[0])["d"]) for o in witness_options(entry(claim))] == ["1"]  # no \forall around it
     assert prove(claim).verdict != "proved"
 
 
 def test_witness_options_start_with_the_enclosing_variable():
     options = witness_options(entry(stability(ONE_D)))
-    assert [str(dict(o)["del"]) for o in options] == ["eps", "eps/2", "eps/10", "1"]
+    assert [str(dict(o[0])["del"]) for o in options] == ["eps", "eps/2", "eps/10", "1"]
     assert len(options) <= 4
 
 

@@ -139,6 +139,16 @@ class Theorem:
             ("unroll", self.unroll), ("check_nonblocking", self.check_nonblocking), *conditions,
         ))
 
+    def unused_name(self, base: str) -> str:
+        """A name no symbol of the theorem has, bound or free, annotations and hints included:
+        base, base2, base3, ..."""
+        taken = set(re.findall(r"[A-Za-z_]\w*", self.canonical))
+        name, k = base, 1
+        while name in taken:
+            k += 1
+            name = f"{base}{k}"
+        return name
+
     @property
     def content_hash(self) -> str:
         """A hash of `canonical`: changes whenever the claim does (a sort, an invariant, ...)."""

@@ -21,8 +21,8 @@ from itertools import combinations
 
 import sympy
 
-from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq, program_symbols
-from certiloop.models.lang.terms import And, Node, Real, cmp, free_vars
+from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq
+from certiloop.models.lang.terms import And, Node, Real, cmp
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
 from certiloop.proofs.engine.odeplan import odes_of
@@ -36,7 +36,7 @@ def ghost_options(theorem: Theorem) -> list[Theorem]:
     finds)."""
     for flow in odes_of(theorem.program):
         for pair in _linear_pairs(flow):
-            name = _fresh("eig", theorem)
+            name = theorem.unused_name("eig")
             options = [_option(theorem, flow, pair, name, side) for side in ("<=", ">=")]
             return options[:MAX_OPTIONS]
     return []
@@ -67,17 +67,6 @@ def _linear_pairs(flow: ODE):
             if discriminant.is_number and (discriminant < 0 or sympy.sqrt(discriminant).is_rational):
                 continue  # complex, or rational eigenvalues (Darboux search over QQ has them)
             yield pair, matrix, table
-
-
-def _fresh(base: str, theorem: Theorem) -> str:
-    used = (set(free_vars(theorem.assumptions)) | set(free_vars(theorem.guarantee))
-            | set(program_symbols(theorem.program)) | {n for n, _ in theorem.ghosts}
-            | {c.payload for c in theorem.constants} | set(theorem.abbreviations))
-    name, k = base, 1
-    while name in used:
-        k += 1
-        name = f"{base}{k}"
-    return name
 
 
 def _option(theorem: Theorem, flow: ODE, found, name: str, side: str) -> Theorem:

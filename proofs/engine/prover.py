@@ -240,20 +240,27 @@ class Prover:
         start = time.perf_counter()
         best = None
         for option in options:
-            attempt = self.prove(replace(theorem, witnesses=option), smtlib_dir=smtlib_dir, search=False)
+            witnesses, ghosts = option
+            attempt = self.prove(replace(theorem, witnesses=witnesses, ghosts=ghosts), smtlib_dir=smtlib_dir,
+                                 search=False)
             still_open = sum(r.verdict != "proved" for r in attempt.obligations)
             if best is None or still_open < best[0]:
                 best = (still_open, attempt, option)
             if attempt.verdict == "proved" or len(attempt.obligations) > WITNESS_RETRY_OBLIGATIONS:
                 break  # a large proof is not tried again (a count, not a clock)
         _, result, option = best
-        given = len(theorem.witnesses)
-        chosen = ", ".join(f"{v} := {t}" for v, t in option[given:])
+
+        def shown(option) -> str:
+            witnesses, ghosts = option
+            text = ", ".join(f"{v} := {t}" for v, t in witnesses[len(theorem.witnesses):])
+            new = ghosts[len(theorem.ghosts):]
+            return text + "".join(f" (a ghost with {fact})" for _, fact in new)
+
         if result.verdict == "proved":
-            result.reason = f"with the witness {chosen}" + (f"; {result.reason}" if result.reason else "")
+            result.reason = f"with the witness {shown(option)}" + (f"; {result.reason}" * bool(result.reason))
         else:
-            tried = "; ".join(", ".join(f"{v} := {t}" for v, t in o[given:]) for o in options)
-            result.reason = f"{result.reason} (witnesses tried: {tried}; the closest: {chosen})"
+            tried = "; ".join(shown(o) for o in options)
+            result.reason = f"{result.reason} (witnesses tried: {tried}; the closest: {shown(option)})"
         if on_start:
             on_start(len(result.obligations))
         for r in result.obligations if on_result else ():
