@@ -167,3 +167,11 @@ def test_no_equilibrium_no_proof():
     with c + s^2 = 0 cannot be shown to exist."""
     result = prove(equilibrium("c > 0", "c + x^2"))
     assert result.verdict != "proved"
+
+
+def test_export_refuses_a_ghost():
+    from certiloop.models.kyx import NotExpressible, to_kyx
+
+    t = Theorem("t", x >= 0, ode([(x, -x)], invariants=[x * g >= 0]), x >= 0, ghosts=(("g", g > 0),))
+    with pytest.raises(NotExpressible, match="ghost constant `g`"):
+        to_kyx(t)

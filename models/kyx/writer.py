@@ -190,6 +190,8 @@ def to_kyx(t: Theorem) -> str:
     pr = _Printer(t, names)
     if t.well_defined or t.defined_if:  # written as assumptions, the pins would prove what is ill-defined
         raise pr.fail(f"its side condition ({(t.well_defined + t.defined_if)[0][0]}) has no .kyx form")
+    if t.ghosts:  # a proof hint with a fact the proof must first show satisfiable: not an annotation
+        raise pr.fail(f"its ghost constant `{t.ghosts[0][0]}` has no .kyx form")
     body = pr.program(t.program, 2)
     problem = f"  ({pr.formula(t.assumptions)})\n  ->\n  [\n    {body}\n  ]({pr.formula(t.guarantee)})"
     constants = [c.payload for c in t.constants]
