@@ -5,13 +5,15 @@ flows with parameters (proofs/engine/eigen.py).
 Independent witness for every `proved`: scipy integrates the flow from random parameters and
 starts that satisfy the assumptions."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
 from certiloop.models.kyx import read_entries
 from certiloop.models.lang.programs import assign, havoc, loop, ode, seq, test
-from certiloop.models.lang.terms import TRUE, And, ModelError, Real, cmp
+from certiloop.models.lang.terms import INT, TRUE, And, Box, ModelError, Real, Var, cmp
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.vcgen import generate
 from certiloop.proofs.engine.eigen import ghost_options
@@ -38,6 +40,32 @@ def test_a_ghost_must_be_a_fresh_name(where):
     constants = (g,) if where == "constant" else ()
     with pytest.raises(ModelError, match="the ghost `g` must be a fresh name"):
         Theorem("t", assumptions, program, guarantee, constants=constants, ghosts=(("g", g > 0),))
+
+
+def test_a_fact_mentions_no_later_ghost():
+    """A red team's false claim, proved before: `a = b` was shown to have a solution with b
+    any value, then `b = a + 1` re-bound b, and both facts together were a contradiction."""
+    with pytest.raises(ModelError, match="mentions the later ghost `b`"):
+        Theorem("two", TRUE, assign(x, 1), cmp("==", x, 0),
+                ghosts=(("a", cmp("==", a, b)), ("b", cmp("==", b, a + 1))))
+    later_fine = Theorem("two", TRUE, assign(x, 1), x >= 0, ghosts=(("a", a > 0), ("b", cmp("==", b, a + 1))))
+    assert prove(later_fine).verdict == "proved"
+
+
+@pytest.mark.parametrize("fact, message", [
+    (lambda: And(g > 0, Box(assign(y, g), y > 0)), "holds a modality"),
+    (lambda: cmp("==", Var("g", INT), 1), "two sorts"),
+])
+def test_a_fact_is_first_order_and_well_sorted(fact, message):
+    with pytest.raises(ModelError, match=message):
+        Theorem("t", g >= 0, ode([(x, -x)], invariants=[x >= 0]), x >= 0,
+                ghosts=(("h", And(Real("h") > 0, fact())),))
+
+
+def test_the_eigenvalue_ghost_avoids_every_name_of_the_theorem():
+    """A scenario (or abbreviation) naming `eig` once made the engine's ghost clash."""
+    t = replace(spring("c^2 > 4*k"), scenarios=(Real("eig") > 0,))
+    assert {o.ghosts[0][0] for o in ghost_options(t)} == {"eig2"}
 
 
 def test_a_ghost_may_appear_in_the_annotations():

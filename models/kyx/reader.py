@@ -79,10 +79,15 @@ METADATA = re.compile(r"/\*@certiloop (\{.*?\})\s*\*/", re.S)
 
 def _with_ode_primes(p: Program, primes: dict[str, str]) -> Program:
     """After every ODE, set the differential symbols in use to the right-hand sides (dL:
-    x' = f(x) holds in the final state of every run, also the run of duration 0)."""
+    x' = f(x) holds in the final state of every run, also the run of duration 0), also in
+    the modalities of a test (`?([{y'=1}] y'=1)` always passes)."""
     if isinstance(p, ODE):
         sets = [assign(Real(primes[v.payload]), f) for v, f in p.eqs if v.payload in primes]
         return seq(p, *sets) if sets else p
+    if isinstance(p, Test):
+        return Test(_primes_in_formula(p.cond, primes))
+    if isinstance(p, Assign) and p.value.sort == BOOL:
+        return Assign(p.target, _primes_in_formula(p.value, primes))
     if isinstance(p, Seq):
         return seq(*(_with_ode_primes(q, primes) for q in p.parts))
     if isinstance(p, Loop):
@@ -256,6 +261,7 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
         f = _primes_in_formula(f, builder.primes)
     meta = _metadata(span, source, problem)
     if meta.get("names"):
+        _check_renaming(meta["names"], spelled | set(shared.defs), _where(source, problem))
         f = _rename(f, meta["names"])
     risky = frozenset(builder.named_roots)  # defined only where their argument is >= 0
     assumptions, program, guarantee = split_problem(f, exact=meta.get("shape") == "A->[a]P", risky=risky)
@@ -425,6 +431,20 @@ def _meta_term(text: str, scope: Scope, source: str) -> Node:
 def _meta_formula(text: str, scope: Scope, source: str) -> Node:
     tree = parse_tree(f'ArchiveEntry "m" Problem {text} End. End.', source)
     return Builder(scope, {}).expr(tree.children[0].children[-2].children[0], {})
+
+
+def _check_renaming(names: dict[str, str], spelled: set[str], where: str) -> None:
+    """certiloop's metadata renames KeYmaera X's spelling back to certiloop's names: one to
+    one, onto names the entry does not use otherwise (else it would merge two symbols)."""
+    if not isinstance(names, dict) or not all(isinstance(v, str) and v.isidentifier()
+                                              for v in names.values()):
+        raise KyxError(f"{where}: the certiloop metadata's names must map names to identifiers")
+    if len(set(names.values())) != len(names):
+        raise KyxError(f"{where}: the certiloop metadata renames two symbols to one name")
+    for kyx, ours in names.items():
+        if ours != kyx and ours in spelled:
+            raise KyxError(f"{where}: the certiloop metadata renames `{kyx}` to `{ours}`, a name the entry "
+                           "already uses")
 
 
 def _rename(f: Node, names: dict[str, str]) -> Node:

@@ -222,6 +222,8 @@ def _visit(t: "Theorem", on_node: Callable[[Node, str], None],
         nodes(c, "the constants")
     for what, condition in t.well_defined + t.defined_if:
         nodes(condition, f"well-definedness condition ({what})")
+    for name, fact in t.ghosts:
+        nodes(fact, f"the fact about the ghost {name}")
 
 
 def symbol_occurrences(t: "Theorem") -> list[tuple[str, Sort, str]]:
@@ -295,6 +297,10 @@ def _check_odes(p: Program, where: str) -> None:
         _check_odes(q, where)
 
 
+def _modal(f: Node) -> bool:
+    return f.op in ("box", "diamond") or any(_modal(a) for a in f.args)
+
+
 def _check_ghosts(t: Theorem, where: str) -> None:
     """Each ghost is a fresh name: the claim and the program's runs never mention it (a proof
     that assumes a fact about it then holds for the claim, whatever value it takes)."""
@@ -302,14 +308,20 @@ def _check_ghosts(t: Theorem, where: str) -> None:
              | set(program_symbols(t.program, annotations=False)) | {c.payload for c in t.constants}
              | {n for s in t.scenarios for n in free_vars(s)}
              | {n for v in t.abbreviations.values() for n in free_vars(v)} | set(t.abbreviations))
-    seen: set[str] = set()
-    for name, fact in t.ghosts:
-        if not name.isidentifier() or name in claim or name in seen:
+    names = [name for name, _ in t.ghosts]
+    for k, (name, fact) in enumerate(t.ghosts):
+        if not name.isidentifier() or name in claim or name in names[:k]:
             raise ModelError(f"{where}: the ghost `{name}` must be a fresh name (the claim or an earlier "
                              "ghost uses it)")
-        if name not in free_vars(fact):
+        mentioned = set(free_vars(fact))
+        if name not in mentioned:
             raise ModelError(f"{where}: the fact about the ghost `{name}` does not mention it: `{fact}`")
-        seen.add(name)
+        # a later ghost is chosen after this fact is assumed: read here, it would be any value
+        if later := sorted(mentioned & set(names[k + 1:])):
+            raise ModelError(f"{where}: the fact about the ghost `{name}` mentions the later ghost "
+                             f"`{later[0]}`")
+        if _modal(fact):
+            raise ModelError(f"{where}: the fact about the ghost `{name}` holds a modality: `{fact}`")
 
 
 def check_well_formed(t: Theorem) -> None:
