@@ -118,3 +118,20 @@ def test_the_planner_tries_no_quantified_formula_and_the_proof_keeps_its_facts()
         assert p.prove(theorem, search=False).verdict == "proved"
     path = along(lambda x, y: [y, -x * y], [1.0, 1.0])
     assert path[1].min() > 0
+
+
+def test_a_chain_listed_backwards_is_reordered():
+    """p >= 0 needs q >= 0, which needs r >= 0, which needs s >= 0 (each the next one's rate),
+    but the assumptions list them p, q, r, s: a failing link moves to the chain's end again
+    after the links moved behind it (essential.kyx's triple integrator)."""
+    p, q, r, s = Reals("p q r s")
+    flow = ode({p: q, q: r, r: s, s: s ** 2 + 1})
+    start = And(p >= 0, q >= 0, r >= 0, s >= 0)
+    assert verdict(start, flow, p >= 0) == "proved"
+    rng = np.random.default_rng(3)
+    for _ in range(20):  # witness: nonnegative starts keep p >= 0 (short horizon: s blows up)
+        path = along(lambda p, q, r, s: [q, r, s, s * s + 1], rng.uniform(0, 1, 4), T=0.5)
+        assert path[0].min() >= -1e-12
+    # the false twin: r may start negative, and p goes below 0
+    assert verdict(And(p >= 0, q >= 0, r >= -1, s >= 0), flow, p >= 0) != "proved"
+    assert along(lambda p, q, r, s: [q, r, s, s * s + 1], [0, 0, -1, 0], T=0.5)[0].min() < 0

@@ -49,6 +49,7 @@ from certiloop.proofs.engine.darboux_search import search_atoms
 from certiloop.proofs.engine.first_integrals import integral_atoms
 
 MAX_ROUNDS = 40
+MAX_DEFERRALS = 3  # a link that fails moves to the chain's end at most this often
 # progress asks for p'', which for a cubic field in six variables takes sympy seconds to build
 # (Yang Wu Lin C7: 4.5 s) and z3 longer to check; its cases so far are planar
 MAX_PROGRESS_VARS = 3
@@ -238,7 +239,7 @@ def rule_options(atom: Node, ode: ODE) -> list[OdeStep]:
 class _Link:
     options: list[OdeStep]
     tried: int = 0
-    deferred: bool = False
+    deferrals: int = 0  # times moved to the chain's end
 
     @property
     def step(self) -> OdeStep:
@@ -332,9 +333,12 @@ def _revise(links: list[_Link], n: int) -> None:
     link = links[n - 1]
     if link.tried + 1 < len(link.options):
         link.tried += 1
-    elif not link.deferred and n < len(links):
+    elif link.deferrals < MAX_DEFERRALS and n < len(links):
+        # behind the links that follow it: one of them may be what its premise needs, and
+        # again after those that were moved behind it (a triple integrator's x >= 0 needs
+        # y >= 0, which needs z >= 0, listed in that order)
         del links[n - 1]
-        link.tried, link.deferred = 0, True
+        link.tried, link.deferrals = 0, link.deferrals + 1
         links.append(link)
     else:
         del links[n - 1]
