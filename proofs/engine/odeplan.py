@@ -50,6 +50,7 @@ from certiloop.proofs.engine.first_integrals import integral_atoms
 
 MAX_ROUNDS = 40
 MAX_DEFERRALS = 3  # a link that fails moves to the chain's end at most this often
+REORDER_OBLIGATIONS = 300  # ... in a proof of at most this many obligations; once in a larger one
 # progress asks for p'', which for a cubic field in six variables takes sympy seconds to build
 # (Yang Wu Lin C7: 4.5 s) and z3 longer to check; its cases so far are planar
 MAX_PROGRESS_VARS = 3
@@ -275,7 +276,11 @@ def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResu
     for _ in range(MAX_ROUNDS):
         plan = {key: tuple(link.step for link in links) for key, links in chains.items()}
         failed: dict[tuple, dict[int, str]] = {}
-        for ob in generate(theorem, plan):
+        obligations = generate(theorem, plan)
+        # moving a link again costs whole rounds, each generating every obligation: a large
+        # proof (a hybrid automaton's 1,300) moves each link once
+        deferrals = MAX_DEFERRALS if len(obligations) <= REORDER_OBLIGATIONS else 1
+        for ob in obligations:
             if not ob.ode_step or ob.ode_step[0] not in chains:
                 continue
             key, n, kind = ob.ode_step
@@ -292,7 +297,7 @@ def plan_odes(theorem: Theorem, discharge: Callable[[Obligation], ObligationResu
             if starts := [n for n, kind in bad.items() if kind == "init"]:
                 _drop(chains[key], starts)
             else:
-                _revise(chains[key], min(bad))
+                _revise(chains[key], min(bad), deferrals)
     # the rounds ran out: each chain up to its first failing link, whose links all hold (a
     # link's premise assumes only the links before it), rather than a chain that fails
     return {key: steps[: min(failed[key]) - 1] if key in failed else steps for key, steps in plan.items()}
@@ -328,12 +333,12 @@ def _drop(links: list[_Link], numbers: list[int]) -> None:
         del links[n - 1]
 
 
-def _revise(links: list[_Link], n: int) -> None:
+def _revise(links: list[_Link], n: int, max_deferrals: int = MAX_DEFERRALS) -> None:
     """Change the first failing link (number n, from 1) of a chain, whose premise failed."""
     link = links[n - 1]
     if link.tried + 1 < len(link.options):
         link.tried += 1
-    elif link.deferrals < MAX_DEFERRALS and n < len(links):
+    elif link.deferrals < max_deferrals and n < len(links):
         # behind the links that follow it: one of them may be what its premise needs, and
         # again after those that were moved behind it (a triple integrator's x >= 0 needs
         # y >= 0, which needs z >= 0, listed in that order)
