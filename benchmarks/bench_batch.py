@@ -66,7 +66,7 @@ def hypothesis_rate():
 if mode == "rate":
     try:
         import numpy as np
-        from certiloop.falsify.batch import compiled
+        from certiloop.falsify.batch.program import compiled
         t = time.perf_counter(); program = compiled(th, 3); out["compile_s"] = time.perf_counter() - t
         # a model with families: each 4,096 runs split over the search's sizes (1..8), a batch per size
         sizes = program.sizes((1, 8)) if hasattr(program, "sizes") else [0]
@@ -186,9 +186,9 @@ def _ab(names: list[str]) -> list[dict]:
     hypothesis alone, the batch phase then hypothesis, and the gate's own task (which gives a
     model expected proved 100 hypothesis examples once its batch runs found nothing): what
     the batch phase adds to or saves from the gate. Seconds are CPU seconds of this process."""
+    from certiloop.cli.gate import GateOptions, falsify_task
     from certiloop.falsify.search import Options, falsify
     from certiloop.models import library
-    from certiloop.proofs.cli.gate import GateOptions, falsify_task
 
     rows = []
     for name in names:

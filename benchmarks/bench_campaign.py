@@ -28,10 +28,10 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 from common import record
 
-from certiloop.falsify.campaign import SETUPS, Fault, Scenario, run_campaign, run_setup
-from certiloop.falsify.campaign_search import worst_case
-from certiloop.kernel import VirtualFixture
-from certiloop.kernel.deviation import DeviationMonitor
+from certiloop.studies.raven.campaign.run import SETUPS, Fault, Scenario, run_campaign, run_setup
+from certiloop.studies.raven.campaign.search import worst_case
+from certiloop.studies.raven.deviation import DeviationMonitor
+from certiloop.studies.sbs.fixture import VirtualFixture
 
 HAND_SPEED = 0.5  # m/s, the surgeon's hand (assumed)
 

@@ -42,8 +42,8 @@ import numpy as np
 from cfmpa_mutants import early_arrival_plans, mutant_databases, random_scene
 from common import record
 
-from certiloop.kernel.dualarm import arm_enclosures, builtdr, reference_scene, static_arm
-from certiloop.kernel.dualarm_planner import check_path, plan
+from certiloop.studies.dualarm.arms import arm_enclosures, builtdr, reference_scene, static_arm
+from certiloop.studies.dualarm.planner import check_path, plan
 
 DEFAULT_DT = (0.2, 0.1)
 SCENES = {

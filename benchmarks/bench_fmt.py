@@ -7,7 +7,7 @@ For each n: success rate (a certified path, re-checked independently), median pl
 (FMT* plus the certification of its path), median re-check time, median cost (eq 1 as the
 planner optimises it), waypoints; the paper's execution, per-joint PD on `RavenArm` with a
 quintic per edge (simulated tracking time, runs whose true wrist or tip crosses, median least
-clearance); and tracking of the tip (kernel/plan/track.py): runs that
+clearance); and tracking of the tip (studies/raven/plan/track.py): runs that
 cross a boundary with the virtual fixture, and without it for an operator lagging far behind
 the reference (the paper's success falls with n because shorter paths pass nearer the dome
 wall; here the bare operator's corner cutting stands for that), beside the paper's Table 2
@@ -25,9 +25,9 @@ import time
 
 from common import record
 
-from certiloop.kernel.plan.planner import free_fraction, plan_once
-from certiloop.kernel.plan.scenes import FRS_BOX
-from certiloop.kernel.plan.track import track, track_joints
+from certiloop.studies.raven.plan.planner import free_fraction, plan_once
+from certiloop.studies.raven.plan.scenes import FRS_BOX
+from certiloop.studies.raven.plan.track import track, track_joints
 
 PAPER = {200: {"planning_s": 3.676, "tracking_s": 4.705, "waypoints": 13.5, "cost": 21.9, "success": 0.90},
          500: {"planning_s": 15.935, "tracking_s": 4.277, "waypoints": 14.3, "cost": 11.1, "success": 0.85},

@@ -8,7 +8,7 @@
 with commit a42bfa6 installed) side by side: interleaved rounds, each a fresh worker process
 per install (`--worker`), the same planes and states; medians over rounds of per-round
 medians, written to results/kernel_compare.json. This install's step runs on its default back
-end (the compiled C when a compiler is there, see certiloop.kernel.native); with
+end (the compiled C when a compiler is there, see certiloop.studies.sbs.native); with
 CERTILOOP_KERNEL=python in the environment it runs the numpy path, written to
 results/kernel_compare_numpy.json.
 """
@@ -26,7 +26,8 @@ import time
 import numpy as np
 from common import record
 
-from certiloop.kernel import VirtualFixture, ctrl2
+from certiloop.studies.sbs.fixture import VirtualFixture
+from certiloop.studies.sbs.generated import ctrl2
 
 
 def planes(m: int, rng) -> list:

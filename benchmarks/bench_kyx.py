@@ -27,7 +27,7 @@ from common import RESULTS  # noqa: E402
 
 from certiloop.models.kyx import KyxError, read_entries  # noqa: E402
 
-CLI = [sys.executable, "-m", "certiloop.proofs.cli"]
+CLI = [sys.executable, "-m", "certiloop.cli"]
 SAFETY_NET_S = 120  # a wall-clock guard per process only: reaching it counts as unknown
 
 

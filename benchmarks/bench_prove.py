@@ -24,7 +24,7 @@ def main() -> None:
     args = ap.parse_args()
     rows = []
     for model in args.models:
-        cmd = [sys.executable, "-m", "certiloop.proofs.cli", "prove", model, "--jobs", str(args.jobs)]
+        cmd = [sys.executable, "-m", "certiloop.cli", "prove", model, "--jobs", str(args.jobs)]
         times = wall(cmd, args.repeats)
         with tempfile.NamedTemporaryFile(suffix=".json") as f:
             subprocess.run(cmd + ["--json", f.name], capture_output=True)

@@ -31,10 +31,10 @@ from pathlib import Path
 import numpy as np
 from common import record
 
-from certiloop.kernel import rcm
-from certiloop.kernel.rcm_cloud import CloudBarrier
-from certiloop.kernel.rcm_demo import P_C, P_C_PAPER, TOOL_LENGTH, demo_controller
-from certiloop.kernel.rcm_dynamics import RcmAdmittance
+from certiloop.studies.rcm import kernel as rcm
+from certiloop.studies.rcm.cloud import CloudBarrier
+from certiloop.studies.rcm.demo import P_C, P_C_PAPER, TOOL_LENGTH, demo_controller
+from certiloop.studies.rcm.dynamics import RcmAdmittance
 
 
 def guidance(t: float) -> list[float]:

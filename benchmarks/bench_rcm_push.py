@@ -14,8 +14,8 @@ import time
 
 from common import RESULTS, record
 
-from certiloop.falsify.rcm_push import SCENARIOS, search, steady_threshold
-from certiloop.falsify.rcm_push_plot import plot_push
+from certiloop.studies.rcm.push import SCENARIOS, search, steady_threshold
+from certiloop.studies.rcm.push_plot import plot_push
 
 
 def main() -> None:

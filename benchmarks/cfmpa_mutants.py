@@ -30,9 +30,9 @@ from unittest import mock
 
 import numpy as np
 
-from certiloop.kernel import dualarm
-from certiloop.kernel.dualarm import Arm, Scene, builtdr
-from certiloop.kernel.dualarm_planner import MOVES
+from certiloop.studies.dualarm import arms as dualarm
+from certiloop.studies.dualarm.arms import Arm, Scene, builtdr
+from certiloop.studies.dualarm.planner import MOVES
 
 MAX_CELLS = 100_000  # random scenes stay small enough for a 2-core machine
 SEGMENT_PIECES = 8  # the segment θ - ωΔt .. θ + ωΔt enclosed as a chain of this many small boxes

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from certiloop.kernel.dualarm import static_arm
+from certiloop.studies.dualarm.arms import static_arm
 
 DENSE = 2e-4  # rad between re-check poses
 SOLVE_S = 5.0

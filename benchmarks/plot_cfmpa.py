@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from certiloop.kernel.dualarm import arm_enclosures, builtdr, static_arm
+from certiloop.studies.dualarm.arms import arm_enclosures, builtdr, static_arm
 
 COLOURS = np.array([[1.0, 1.0, 1.0], [0.95, 0.6, 0.2], [0.2, 0.2, 0.3]])  # free, freed by mod, blocked
 

@@ -7,8 +7,8 @@ from typing import Any
 from rich.console import Console
 from rich.markup import escape
 
+from certiloop.cli import ui
 from certiloop.falsify.search import Falsification
-from certiloop.proofs.cli import ui
 
 
 def show_falsification(console: Console, result: Falsification, level: int = ui.NORMAL) -> None:

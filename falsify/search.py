@@ -147,7 +147,7 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     start = time.perf_counter()
     batched = 0
     if opts.batch_runs > 0:  # many seeded runs at once; a hit is reported only once replayed
-        from certiloop.falsify.batch_search import batch_search
+        from certiloop.falsify.batch.phase import batch_search
 
         first = {} if opts.batch_first is None else {"first": opts.batch_first}
         outcome = batch_search(theorem, opts.batch_runs, opts.seed, opts.max_steps, opts.families, **first)

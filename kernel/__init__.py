@@ -1,5 +1,2 @@
-"""Runtime kernel: the virtual fixture built from the verified ctrl2 (numpy only)."""
-
-from certiloop.kernel.fixture import Command, VirtualFixture
-
-__all__ = ["Command", "VirtualFixture"]
+"""Runtime support for extracted code (float-sound arithmetic: `filtered`) and the extraction tool
+(`extract/`). The kernels themselves belong to their case studies (`certiloop.studies.*`)."""

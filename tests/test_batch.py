@@ -5,8 +5,8 @@ same seed gives the same verdict, and models it cannot compile keep the old sear
 import numpy as np
 import pytest
 
-from certiloop.falsify.batch import Batch, BatchProgram, compiled
-from certiloop.falsify.batch_search import batch_search, confirm_candidate
+from certiloop.falsify.batch.phase import batch_search, confirm_candidate
+from certiloop.falsify.batch.program import Batch, BatchProgram, compiled
 from certiloop.falsify.choosers import Diverged, Scripted
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import exact_view
@@ -100,7 +100,7 @@ def test_batch_counterexamples_violate_the_guarantee_exactly(name):
     assert result.found and result.phase == "batch"
     if "exact" not in result.check:
         return
-    from certiloop.falsify.batch_search import exact_initial
+    from certiloop.falsify.batch.phase import exact_initial
 
     interp = Interpreter(theorem, exact=True)
     run = interp.run(Scripted(result.script), exact_initial(theorem, result.initial, interp.c))

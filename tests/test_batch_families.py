@@ -7,8 +7,8 @@ refuted in the batch phase, and only after the interpreter replayed the run."""
 import numpy as np
 import pytest
 
-from certiloop.falsify.batch import BatchProgram, compiled
-from certiloop.falsify.batch_search import BATCH_SIZE, _grow, _split, batch_search
+from certiloop.falsify.batch.phase import BATCH_SIZE, _grow, _split, batch_search
+from certiloop.falsify.batch.program import BatchProgram, compiled
 from certiloop.falsify.choosers import Diverged, RandomChooser, Scripted
 from certiloop.falsify.evaluate import Blocked, Compiler, Table
 from certiloop.falsify.interpreter import Interpreter

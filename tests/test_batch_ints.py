@@ -1,4 +1,4 @@
-"""The integer batch (`falsify/batch_ints.py`): Hoare triples over integer constants and
+"""The integer batch (`falsify/batch/ints.py`): Hoare triples over integer constants and
 arrays run vectorised. Every completed batch run is checked against an independent witness
 (the tree-walking interpreter replaying its initial state and decisions), the mutants are
 found and confirmed, the proved triples give nothing, and what leaves the fragment says why."""
@@ -8,9 +8,9 @@ import re
 import numpy as np
 import pytest
 
-from certiloop.falsify.batch import compiled
-from certiloop.falsify.batch_ints import IntBatchProgram
-from certiloop.falsify.batch_search import batch_search, confirm_candidate
+from certiloop.falsify.batch.ints import IntBatchProgram
+from certiloop.falsify.batch.phase import batch_search, confirm_candidate
+from certiloop.falsify.batch.program import compiled
 from certiloop.falsify.choosers import Scripted
 from certiloop.falsify.interpreter import Interpreter
 from certiloop.falsify.vectorise import Unsupported

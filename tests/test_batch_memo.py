@@ -8,9 +8,9 @@ gives the same solution."""
 import numpy as np
 import pytest
 
-from certiloop.falsify.batch import BatchProgram
-from certiloop.falsify.batch_open import solve_affine
-from certiloop.falsify.batch_state import State
+from certiloop.falsify.batch.open_values import solve_affine
+from certiloop.falsify.batch.program import BatchProgram
+from certiloop.falsify.batch.state import State
 from certiloop.falsify.vectorise import VCompiler
 from certiloop.models.lang.programs import assign
 from certiloop.models.lang.terms import And, Exists, Family, ForAll, IndexSort, Or, Real, Var

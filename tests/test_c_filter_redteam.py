@@ -1,4 +1,4 @@
-"""Red team for the C kernel's float filter (kernel/extract/c_certified.py), written by a
+"""Red team for the C kernel's float filter (kernel/extract/c/certified.py), written by a
 second reader of its static error bound.
 
 The argument (`cl_static`'s sketch), re-derived: a +, -, * or / by an exact input evaluated in
@@ -31,7 +31,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from certiloop.kernel.extract.c_build import compiler
+from certiloop.kernel.extract.c.build import compiler
 
 pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler (cc/gcc/clang) on PATH")
 
@@ -191,8 +191,8 @@ def test_careful_sqrt_is_exact_only_when_it_is(tmp_path):
     >= 2^-900, where the residual cannot be lost; checked against Fractions."""
     import cffi
 
-    from certiloop.kernel.extract.c_build import build
-    from certiloop.kernel.extract.c_certified import RUNTIME
+    from certiloop.kernel.extract.c.build import build
+    from certiloop.kernel.extract.c.certified import RUNTIME
 
     source = ("#include <math.h>\n#include <stddef.h>\n" + RUNTIME + "\n"
               "int root_bound(double a, double *bound) { cl_real r = cl_sqrt(cl_exact(a), 1);"
@@ -222,8 +222,8 @@ def test_family_range_test_in_integers_is_the_float_range_test(tmp_path):
 
     import cffi
 
-    from certiloop.kernel.extract.c_build import build
-    from certiloop.kernel.extract.c_certified import RUNTIME
+    from certiloop.kernel.extract.c.build import build
+    from certiloop.kernel.extract.c.certified import RUNTIME
 
     source = ("#include <math.h>\n#include <stddef.h>\n" + RUNTIME + "\n"
               "int by_float(const double *x, size_t n) { int r = 1; size_t i;"
@@ -257,8 +257,8 @@ def test_comparison_is_sound_where_the_bounds_are_subnormals(tmp_path):
     double at or below e_a + e_b (from Fractions) is tried, with m chosen near rounding ties."""
     import cffi
 
-    from certiloop.kernel.extract.c_build import build
-    from certiloop.kernel.extract.c_certified import RUNTIME
+    from certiloop.kernel.extract.c.build import build
+    from certiloop.kernel.extract.c.certified import RUNTIME
 
     source = ("#include <math.h>\n#include <stddef.h>\n" + RUNTIME + "\n"
               "int certain(double d, double ma, double mb, double k)"

@@ -6,9 +6,9 @@ import math
 
 import pytest
 
-from certiloop.falsify.campaign import SETUPS, replay, run_setup
-from certiloop.falsify.metrics import summarize, wilson
-from certiloop.proofs.cli.main import main
+from certiloop.cli.main import main
+from certiloop.studies.raven.campaign.metrics import summarize, wilson
+from certiloop.studies.raven.campaign.run import SETUPS, replay, run_setup
 
 
 def campaign(*args):

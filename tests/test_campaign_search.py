@@ -8,10 +8,10 @@ from concurrent.futures import ProcessPoolExecutor, ThreadPoolExecutor
 import numpy as np
 import pytest
 
-from certiloop.falsify.campaign import SETUPS, Fault, run_campaign, run_setup
-from certiloop.falsify.campaign_plots import roc_points
-from certiloop.falsify.campaign_search import replay_fault, worst_case
-from certiloop.proofs.cli.main import main
+from certiloop.cli.main import main
+from certiloop.studies.raven.campaign.plots import roc_points
+from certiloop.studies.raven.campaign.run import SETUPS, Fault, run_campaign, run_setup
+from certiloop.studies.raven.campaign.search import replay_fault, worst_case
 
 
 def test_rows_do_not_depend_on_the_executor_or_the_batch_size():
@@ -71,8 +71,8 @@ import importlib, sys
 sys.path.insert(0, sys.argv[1])
 for name in sys.argv[2:]:
     importlib.import_module(name)
-from certiloop.falsify.campaign import SETUPS
-from certiloop.falsify.campaign_search import worst_case
+from certiloop.studies.raven.campaign.run import SETUPS
+from certiloop.studies.raven.campaign.search import worst_case
 r = worst_case(SETUPS["raven.no_margin"], kinds=("jump", "drift"), max_examples=100, seed=3)
 print(r.fault, r.found_after)
 """
@@ -157,7 +157,7 @@ def test_dask_executor_gives_the_same_rows():
 
 
 def test_positioning_closed_form_matches_the_full_chain_and_its_differences():
-    from certiloop.kernel.raven import Positioning, jacobian, tip
+    from certiloop.studies.raven.arm import Positioning, jacobian, tip
     rng = np.random.default_rng(7)
     q = np.zeros((300, 6))
     q[:, 0], q[:, 1] = rng.uniform(0, 1.6, 300), rng.uniform(0.8, 2.4, 300)
@@ -170,7 +170,7 @@ def test_positioning_closed_form_matches_the_full_chain_and_its_differences():
 
 
 def test_ik_converges_quadratically_near_the_rest_pose():
-    from certiloop.kernel.raven import Positioning, RavenArm
+    from certiloop.studies.raven.arm import Positioning, RavenArm
     kin, rng = Positioning(), np.random.default_rng(1)
     q = RavenArm().rest(100).q[:, :3]
     target = kin.tip(q) + rng.normal(size=(100, 3)) * 1e-3
@@ -182,7 +182,7 @@ def test_ik_converges_quadratically_near_the_rest_pose():
 
 
 def test_arm_plant_calibration_deviation_grows_with_speed_and_stays_under_tol():
-    from certiloop.falsify.campaign import Scenario
+    from certiloop.studies.raven.campaign.run import Scenario
     peaks = []
     for speed in (0.025, 0.05):
         rec = run_campaign([None] * 8, Scenario(ticks=600, plant="arm", reach_speed=speed), seed=0)

@@ -16,7 +16,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from certiloop.kernel.dualarm import (
+from certiloop.studies.dualarm.arms import (
     Arm,
     Scene,
     arm_enclosures,
@@ -25,7 +25,7 @@ from certiloop.kernel.dualarm import (
     static_arm,
     sweep_points,
 )
-from certiloop.kernel.dualarm_planner import check_path, costs, plan
+from certiloop.studies.dualarm.planner import check_path, costs, plan
 
 shapely = pytest.importorskip("shapely")
 from shapely.geometry import MultiPoint, Polygon  # noqa: E402
@@ -247,7 +247,7 @@ def test_planner_refuses_bad_input():
 def test_kernel_imports_numpy_only():
     """Also after a database is built and planned (the extracted code's hash pins read the
     model library, which must not pull in a prover)."""
-    code = ("import sys, certiloop.kernel.dualarm as d, certiloop.kernel.dualarm_planner as p; "
+    code = ("import sys, certiloop.studies.dualarm.arms as d, certiloop.studies.dualarm.planner as p; "
             "p.plan(d.builtdr(d.reference_scene(0.4)), (0, 0), (1, 1)); "
             "heavy = ('z3', 'sympy', 'hypothesis', 'scipy', 'cvxpy', 'shapely'); "
             "print([m for m in heavy if m in sys.modules])")
@@ -316,22 +316,22 @@ def test_every_plan_passes_the_proved_model():
 
 
 def test_shipped_kernels_are_fresh_extractions_of_their_models():
-    """kernel/cfmpa_builtdr.py and kernel/cfmpa_check.py are byte-for-byte what `certiloop
-    extract` makes of the proved models today, and carry the models' current hashes."""
-    from certiloop.kernel import cfmpa_builtdr, cfmpa_check
-    from certiloop.kernel.extract import SHIPPED, shipped_drift
+    """studies/dualarm/generated/builtdr.py and studies/dualarm/generated/check_path.py are byte-for-byte
+    what `certiloop extract` makes of the proved models today, and carry the models' current hashes."""
+    from certiloop.kernel.extract import shipped, shipped_drift
     from certiloop.models import library
+    from certiloop.studies.dualarm.generated import builtdr as cfmpa_builtdr
+    from certiloop.studies.dualarm.generated import check_path as cfmpa_check
 
     for name, module in (("cfmpa.builtdr", cfmpa_builtdr), ("cfmpa.check_path", cfmpa_check)):
-        assert name in SHIPPED
+        assert name in shipped()
         assert shipped_drift(name) == ""
         assert (module.MODEL, module.MODEL_HASH) == (name, library.get(name).content_hash)
 
 
 def test_a_changed_model_is_refused_at_run_time(monkeypatch):
-    import certiloop.kernel.dualarm_pins as pins
-    from certiloop.kernel import cfmpa_check
-
+    import certiloop.studies.dualarm.pins as pins
+    from certiloop.studies.dualarm.generated import check_path as cfmpa_check
     monkeypatch.setattr(cfmpa_check, "MODEL_HASH", "0000000000000000")
     monkeypatch.setattr(pins, "_checked", False)
     with pytest.raises(RuntimeError, match="certiloop extract cfmpa.check_path"):
@@ -359,7 +359,7 @@ def _interpret_builtdr(overlap: np.ndarray) -> np.ndarray:
 def test_extracted_builtdr_agrees_with_the_interpreter(N, m, n, density, seed):
     """The shipped builtDR and the interpreter running `cfmpa.builtdr` leave the same database
     on random overlap arrays (including empty grids), and it is the overlap predicate."""
-    from certiloop.kernel.cfmpa_builtdr import controller
+    from certiloop.studies.dualarm.generated.builtdr import controller
 
     overlap = np.random.default_rng(seed).uniform(size=(N, m, n)) < density
     P, enabled = controller(N, m, n, overlap)
@@ -382,7 +382,7 @@ def test_reference_database_is_filled_in_every_cell(r1_coarse):
 def test_reasons_agree_with_the_extracted_verdict(N, m, n, density, seed, length):
     """The hand-written reason finder says "" exactly when the extracted checker accepts: a
     rejection always comes with its real defect, an acceptance never hides one."""
-    from certiloop.kernel.dualarm_planner import _why_not
+    from certiloop.studies.dualarm.planner import _why_not
 
     rng = np.random.default_rng(seed)
     P = (rng.uniform(size=(N, m, n)) < density).astype(np.uint8)

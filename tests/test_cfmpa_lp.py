@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from certiloop.kernel.dualarm_planner import MOVES, STAY, _step_costs, costs, plan
+from certiloop.studies.dualarm.planner import MOVES, STAY, _step_costs, costs, plan
 
 cp = pytest.importorskip("cvxpy")
 sparse = pytest.importorskip("scipy.sparse")
@@ -125,7 +125,14 @@ def test_kernel_separation_is_sound_against_the_lp_and_shapely():
     (builtDR's `_separated` over 64 axes, float32 rounded outwards) calls two links apart, the
     separating-hyperplane LP finds a line and shapely's exact hulls are disjoint; and the LP and
     shapely agree with each other away from touching (distance > 1e-6)."""
-    from certiloop.kernel.dualarm import GAP, _separated, arm_enclosures, axes, projections, reference_scene
+    from certiloop.studies.dualarm.arms import (
+        GAP,
+        _separated,
+        arm_enclosures,
+        axes,
+        projections,
+        reference_scene,
+    )
 
     pytest.importorskip("shapely")
     scene = reference_scene(0.1)

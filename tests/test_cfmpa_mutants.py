@@ -14,8 +14,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from bench_cfmpa import _soundness_verdict, mutant_soundness  # noqa: E402
 from cfmpa_mutants import early_arrival_plans, mutant_databases, random_scene  # noqa: E402
 
-from certiloop.kernel.dualarm import builtdr  # noqa: E402
-from certiloop.kernel.dualarm_planner import check_path  # noqa: E402
+from certiloop.studies.dualarm.arms import builtdr  # noqa: E402
+from certiloop.studies.dualarm.planner import check_path  # noqa: E402
 
 
 @pytest.mark.slow

@@ -9,12 +9,12 @@ import textwrap
 import pytest
 import z3
 
-from certiloop.proofs.cli import main
+from certiloop.cli import main
 
 
 def run(*args, cwd=None):
     """Run the installed console script as a user would (no terminal: no progress bar)."""
-    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", *args],
+    proc = subprocess.run([sys.executable, "-m", "certiloop.cli", *args],
                           capture_output=True, text=True, cwd=cwd, timeout=300,
                           env={**os.environ, "COLUMNS": "200"})
     return proc.returncode, proc.stdout, proc.stderr
@@ -139,7 +139,7 @@ def test_missing_z3_is_a_one_line_error(tmp_path):
     fake = tmp_path / "z3"
     fake.mkdir()
     (fake / "__init__.py").write_text("raise ImportError('No module named z3')\n")
-    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", "prove", "sbs.ctrl1"],
+    proc = subprocess.run([sys.executable, "-m", "certiloop.cli", "prove", "sbs.ctrl1"],
                           capture_output=True, text=True, timeout=120,
                           env={**os.environ, "PYTHONPATH": str(tmp_path)})
     assert proc.returncode == 2
@@ -229,9 +229,9 @@ def test_the_command_collects_garbage_less_often_and_restores_the_setting(monkey
     import gc
     import importlib
 
-    from certiloop.proofs.cli import guards
+    from certiloop.cli import guards
 
-    cli_main = importlib.import_module("certiloop.proofs.cli.main")
+    cli_main = importlib.import_module("certiloop.cli.main")
 
     seen = []
     monkeypatch.setattr(cli_main, "_main", lambda argv: seen.append(gc.get_threshold()) or 0)

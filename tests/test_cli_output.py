@@ -17,10 +17,10 @@ import xml.etree.ElementTree as ET
 import pytest
 from rich.console import Console
 
+from certiloop.cli import gate as gate_module
+from certiloop.cli import main, ui
+from certiloop.cli.gate_view import show_gate
 from certiloop.models import library
-from certiloop.proofs.cli import gate as gate_module
-from certiloop.proofs.cli import main, ui
-from certiloop.proofs.cli.gate_view import show_gate
 from certiloop.proofs.core.vcgen import generate
 
 NON_POLYNOMIAL = textwrap.dedent("""
@@ -131,7 +131,7 @@ def test_falsify_at_80_columns(narrow, capsys):
 
 
 def test_piped_output_has_no_ansi_codes_no_box_drawing_and_no_progress():
-    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", "prove", "textbook.cart_forward",
+    proc = subprocess.run([sys.executable, "-m", "certiloop.cli", "prove", "textbook.cart_forward",
                            "--jobs", "1"], capture_output=True, text=True, timeout=120,
                           env={**os.environ, "COLUMNS": "80"})
     assert proc.returncode == 0
@@ -143,7 +143,7 @@ def test_piped_output_has_no_ansi_codes_no_box_drawing_and_no_progress():
 
 
 def test_obligations_remember_the_incomplete_rule_they_depend_on(models_file):
-    from certiloop.proofs.cli.loading import load
+    from certiloop.cli.loading import load
 
     rules = {name: [o.rule for o in generate(load(f"{models_file}:{name}"))]
              for name in ("square", "bad_inv", "step_down")}
@@ -330,7 +330,7 @@ def _interrupt_when(marker: str, args: list[str], cwd, timeout: float = 240) -> 
     """Run the CLI with stderr on a terminal (so it shows progress), send Ctrl-C to its process
     group once `marker` appears there, and return its exit code and what it printed."""
     master, slave = pty.openpty()
-    proc = subprocess.Popen([sys.executable, "-m", "certiloop.proofs.cli", *args], cwd=cwd,
+    proc = subprocess.Popen([sys.executable, "-m", "certiloop.cli", *args], cwd=cwd,
                             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=slave,
                             start_new_session=True)
     os.close(slave)
@@ -384,7 +384,7 @@ def test_ctrl_c_during_prove_keeps_the_finished_models_json(tmp_path):
 
 def test_falsify_keeps_hypothesis_files_under_certiloop(tmp_path):
     # a model outside the batch phase's fragment, so that hypothesis (and its database) runs
-    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", "falsify",
+    proc = subprocess.run([sys.executable, "-m", "certiloop.cli", "falsify",
                            "cfmpa.early_arrival", "--max-examples", "20"], cwd=tmp_path,
                           capture_output=True, text=True, timeout=120,
                           env={k: v for k, v in os.environ.items() if k != "HYPOTHESIS_STORAGE_DIRECTORY"})

@@ -426,7 +426,7 @@ def test_every_obligation_z3_proves_carries_the_form_it_proved():
 def test_prove_cross_check_confirms_a_library_model(tmp_path):
     import json
 
-    from certiloop.proofs.cli.main import main
+    from certiloop.cli.main import main
 
     out = tmp_path / "r.json"
     assert main(["prove", "textbook.bouncing_ball", "--cross-check", "--json", str(out)]) == 0
@@ -435,7 +435,7 @@ def test_prove_cross_check_confirms_a_library_model(tmp_path):
 
 
 def test_a_disagreement_fails_prove_with_exit_3(monkeypatch, capsys):
-    from certiloop.proofs.cli.main import main
+    from certiloop.cli.main import main
     from certiloop.proofs.engine import second_opinion as module
 
     real = module.second_opinion

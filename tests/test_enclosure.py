@@ -202,7 +202,7 @@ def test_a_finite_time_blow_up_is_stopped_and_reported():
 
 @pytest.mark.slow
 def test_cli_falsify_reports_a_blow_up(tmp_path, capsys):
-    from certiloop.proofs.cli import main
+    from certiloop.cli import main
 
     model = tmp_path / "blow.py"
     model.write_text("from certiloop.models.lang.programs import loop, ode\n"
@@ -224,7 +224,7 @@ def test_a_flow_without_closed_form_followed_for_no_time_replays_exactly():
 
 
 def test_a_batch_candidate_is_confirmed_by_enclosure():
-    from certiloop.falsify.batch_search import confirm_candidate
+    from certiloop.falsify.batch.phase import confirm_candidate
 
     script = [("integer", 1), ("duration", 2.5)]
     run, check = confirm_candidate(FALSE_XY, {"x": 1.0, "y": 0.0}, script, 3, (1, 8))

@@ -1,6 +1,6 @@
 """`certiloop extract MODEL --lang c`: the C kernel builds warning-free with the project's flags
 (-std=c99 -Wall -Wextra -Werror -pedantic -O2 -ffp-contract=off), defines no global data and
-calls nothing but libm, and decides as the reals do (kernel/extract/c_certified.py).
+calls nothing but libm, and decides as the reals do (kernel/extract/c/certified.py).
 
 What conformance means, and what is checked here. The C kernel is float-sound: each decision
 (which alternative, whether the step has a run) is certified by error bounds, and where even
@@ -38,8 +38,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from certiloop.kernel.extract import ExtractError, extract
-from certiloop.kernel.extract.c import extract_c
-from certiloop.kernel.extract.c_build import build, compiler, load
+from certiloop.kernel.extract.c.build import build, compiler, load
+from certiloop.kernel.extract.c.program import extract_c
 from certiloop.models import library
 
 pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler (cc, gcc or $CC) on this machine: "
@@ -472,7 +472,7 @@ def test_ctrl2_same_as_python_and_the_interpreter_on_10000_scenes(folder):
 
 # ------------------------------------------------------------------ the CLI
 
-CLI = [sys.executable, "-m", "certiloop.proofs.cli"]
+CLI = [sys.executable, "-m", "certiloop.cli"]
 
 
 def test_cli_writes_source_and_header(tmp_path):
@@ -496,13 +496,14 @@ def test_cli_lang_c_needs_a_folder():
 
 # ------------------------------------------------------------------ the C fixture (monitor + fallback)
 
-KERNEL_C = __import__("pathlib").Path(__file__).resolve().parent.parent / "kernel" / "c"
+KERNEL_C = __import__("pathlib").Path(__file__).resolve().parent.parent / "studies" / "sbs" / "generated" / "c"
+FIXTURE_C = KERNEL_C.parent.parent / "native_c"
 
 
 def test_shipped_c_kernel_is_a_fresh_extraction():
-    from certiloop.kernel.extract.shipped import shipped_c_drift
+    from certiloop.kernel.extract.shipped import shipped_drift
 
-    assert shipped_c_drift("sbs.ctrl2") == ""
+    assert shipped_drift("sbs.ctrl2") == ""
 
 
 class _Memory(__import__("ctypes").Structure):
@@ -516,13 +517,13 @@ class _Memory(__import__("ctypes").Structure):
 def c_fixture(folder):
     import ctypes
 
-    from certiloop.kernel.extract.c_build import compiler as cc
-    from certiloop.kernel.extract.c_syntax import CFLAGS
+    from certiloop.kernel.extract.c.build import compiler as cc
+    from certiloop.kernel.extract.c.syntax import CFLAGS
 
     out = folder / "fixture" / "libfixture.so"
     out.parent.mkdir()
-    done = subprocess.run([cc(), *CFLAGS, "-fPIC", "-shared", str(KERNEL_C / "sbs_ctrl2.c"),
-                           str(KERNEL_C / "sbs_ctrl2_fixture.c"), "-o", str(out), "-lm"],
+    done = subprocess.run([cc(), *CFLAGS, "-I", str(KERNEL_C), "-fPIC", "-shared", str(KERNEL_C / "sbs_ctrl2.c"),
+                           str(FIXTURE_C / "sbs_ctrl2_fixture.c"), "-o", str(out), "-lm"],
                           capture_output=True, text=True)
     assert done.returncode == 0 and not done.stderr, done.stderr
     lib = ctypes.CDLL(str(out))
@@ -545,8 +546,7 @@ def test_c_fixture_step_same_as_the_python_fixture(c_fixture):
     1e-16 and the sign of its distance cannot be certified without rationals."""
     import ctypes
 
-    from certiloop.kernel import VirtualFixture
-
+    from certiloop.studies.sbs.fixture import VirtualFixture
     rng = np.random.default_rng(5)
     passed = fell_back = undecided = 0
     for _ in range(300):
@@ -593,8 +593,8 @@ def test_c_fixture_reason_is_the_python_monitors_first_failing_check(c_fixture):
     normal, a normal off unit length, the tool past a plane, a position off the prediction."""
     import ctypes
 
-    from certiloop.kernel import ctrl2, monitor
-
+    from certiloop.studies.sbs import monitor
+    from certiloop.studies.sbs.generated import ctrl2
     rng = np.random.default_rng(8)
     seen: dict[int, int] = {}
     for _ in range(600):

@@ -189,7 +189,7 @@ def test_a_tampered_counterexample_does_not_replay():
 
 
 def test_cli_falsify_json_plot_and_exit_codes(tmp_path):
-    from certiloop.proofs.cli import main
+    from certiloop.cli import main
 
     out_json, out_png = tmp_path / "f.json", tmp_path / "f.png"
     code = main(["falsify", "textbook.water_tank_late_check", "--max-examples", "200",
@@ -205,7 +205,7 @@ def test_cli_falsify_json_plot_and_exit_codes(tmp_path):
 @pytest.mark.parametrize("argv", [["falsify", "sbs.nope"], ["falsify", "sbs.ctrl1", "--max-examples", "0"],
                                   ["falsify", "sbs.ctrl1", "--plot", "x.pdf"]])
 def test_cli_falsify_bad_input_exits_2(argv, capsys):
-    from certiloop.proofs.cli import main
+    from certiloop.cli import main
 
     assert main(argv) == 2
     assert capsys.readouterr().err.count("\n") == 1
@@ -244,7 +244,7 @@ def test_after_a_clean_batch_phase_hypothesis_runs_the_smaller_budget():
 
 
 def test_the_gate_keeps_the_full_budget_for_mutants(monkeypatch):
-    from certiloop.proofs.cli import gate
+    from certiloop.cli import gate
 
     seen = {}
     monkeypatch.setattr("certiloop.falsify.search.falsify", lambda th, o: seen.setdefault(th.name, o))
@@ -261,8 +261,7 @@ def test_the_gate_keeps_the_full_budget_for_mutants(monkeypatch):
 @pytest.mark.parametrize("first, rounds", [(256, [256, 1024, 2816]), (4096, [4096])])
 def test_the_batch_phase_grows_its_rounds_from_the_first(monkeypatch, first, rounds):
     """All the runs either way; a search expected to find nothing draws them in one round."""
-    from certiloop.falsify import batch_search as bs
-
+    from certiloop.falsify.batch import phase as bs
     drawn = []
     monkeypatch.setattr(bs, "_split", lambda runs, sizes: drawn.append(runs) or [(sizes[0], runs)])
     outcome = bs.batch_search(library.get("textbook.train"), 4096, 0, 3, (1, 8), first=first)

@@ -17,11 +17,13 @@ from hypothesis import strategies as st
 from certiloop.falsify.choosers import FirstEnabled
 from certiloop.falsify.evaluate import Blocked, Table
 from certiloop.falsify.interpreter import Interpreter
-from certiloop.kernel import VirtualFixture, ctrl2, filtered
+from certiloop.kernel import filtered
 from certiloop.kernel.extract import controller
 from certiloop.models import library
 from certiloop.models.lang.terms import TRUE
 from certiloop.models.lang.theorem import Theorem
+from certiloop.studies.sbs.fixture import VirtualFixture
+from certiloop.studies.sbs.generated import ctrl2
 
 CTRL2 = library.get("sbs.ctrl2")
 _STEP = Theorem("sbs.ctrl2.step", TRUE, controller(CTRL2, inputs=False), TRUE)

@@ -5,10 +5,10 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
+from certiloop.cli import gate as gate_module
+from certiloop.cli import main
+from certiloop.cli.loading import project_models
 from certiloop.models import library
-from certiloop.proofs.cli import gate as gate_module
-from certiloop.proofs.cli import main
-from certiloop.proofs.cli.loading import project_models
 from certiloop.proofs.core.vcgen import generate
 from certiloop.proofs.engine.cache import Cache
 from certiloop.proofs.engine.prover import Prover

@@ -12,11 +12,13 @@ from hypothesis import strategies as st
 from certiloop.falsify.choosers import FirstEnabled
 from certiloop.falsify.evaluate import Blocked, Table
 from certiloop.falsify.interpreter import Interpreter
-from certiloop.kernel import VirtualFixture, ctrl2, native
 from certiloop.kernel.extract import ExtractError, controller, extract, shipped_drift
 from certiloop.models import library
 from certiloop.models.lang.terms import TRUE
 from certiloop.models.lang.theorem import Theorem
+from certiloop.studies.sbs import native
+from certiloop.studies.sbs.fixture import VirtualFixture
+from certiloop.studies.sbs.generated import ctrl2
 
 CTRL2 = library.get("sbs.ctrl2")
 # The kernel takes the real model's decisions (kernel/extract/certified.py) and returns its
@@ -42,7 +44,7 @@ def test_shipped_kernel_is_a_fresh_extraction_of_the_model():
 
 
 def test_the_kernel_imports_no_prover_or_test_library():
-    code = ("import sys, certiloop.kernel as k; k.VirtualFixture([], gain=1, buffer=1, period=1); "
+    code = ("import sys, certiloop.studies.sbs.fixture as k; k.VirtualFixture([], gain=1, buffer=1, period=1); "
             "print(sorted(m for m in ('z3', 'sympy', 'hypothesis', 'scipy') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
@@ -55,7 +57,7 @@ def test_extraction_refuses_a_loop_it_cannot_vectorise():
 
 
 def test_a_changed_model_is_refused(monkeypatch):
-    import certiloop.kernel.fixture as fixture
+    import certiloop.studies.sbs.fixture as fixture
 
     monkeypatch.setattr(ctrl2, "MODEL_HASH", "0000000000000000")
     monkeypatch.setattr(fixture, "_checked", False)
@@ -232,8 +234,7 @@ def test_planes_are_added_only_on_their_safe_side_and_removed_any_time():
 
 
 def test_monitor_rejects_a_gain_the_model_does_not_allow():
-    from certiloop.kernel import monitor
-
+    from certiloop.studies.sbs import monitor
     d0, fn, fnp = np.array([0.1]), np.array([-1.0]), np.array([0.0])
     assert not monitor.check_command(1.0, d0, fn, fnp, gain=1.0, period=1.0).ok  # reaches -0.9
     assert monitor.check_command(0.1, d0, fn, fnp, gain=1.0, period=1.0).ok  # exactly reaches 0

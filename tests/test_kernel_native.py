@@ -1,4 +1,4 @@
-"""The compiled back end of VirtualFixture.step (kernel/native.py): the same commands as the
+"""The compiled back end of VirtualFixture.step (studies/sbs/native.py): the same commands as the
 numpy path on sequences of steps (fallbacks with the same reason, certified gains), the numpy
 path taking over wherever the C does not pass, and a clear refusal when it is unavailable."""
 
@@ -7,7 +7,9 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from certiloop.kernel import VirtualFixture, ctrl2, monitor, native
+from certiloop.studies.sbs import monitor, native
+from certiloop.studies.sbs.fixture import VirtualFixture
+from certiloop.studies.sbs.generated import ctrl2
 
 NATIVE = native.load(ctrl2.MODEL_HASH)
 needs_c = pytest.mark.skipif(NATIVE is None, reason=f"no compiled kernel: {native.why_not()}")
@@ -134,10 +136,10 @@ def test_a_different_model_hash_is_not_loaded():
 
 
 def test_flags_and_declarations_are_the_extractors_and_the_headers():
-    from certiloop.kernel.extract.c_syntax import CFLAGS
+    from certiloop.kernel.extract.c.syntax import CFLAGS
 
     assert native.FLAGS == CFLAGS
-    header = " ".join((native.KERNEL_C / "sbs_ctrl2_fixture.h").read_text().split())
+    header = " ".join((native.FIXTURE_C / "sbs_ctrl2_fixture.h").read_text().split())
     proto = " ".join(native.CDEF.split("\n", 2)[2].split())
     assert proto in header
     assert native.model_hash((native.KERNEL_C / "sbs_ctrl2.h").read_text()) == ctrl2.MODEL_HASH

@@ -28,7 +28,7 @@ VALID, INVALID = FIXTURES / "kyx_valid.kyx", FIXTURES / "kyx_invalid.kyx"
 
 
 def run(*args):
-    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", *args], capture_output=True,
+    proc = subprocess.run([sys.executable, "-m", "certiloop.cli", *args], capture_output=True,
                           text=True, timeout=300, env={**os.environ, "COLUMNS": "200"})
     return proc.returncode, proc.stdout, proc.stderr
 

@@ -16,7 +16,7 @@ from certiloop.models import (
 )
 from certiloop.models import test as guard
 from certiloop.models.lang.programs import written
-from certiloop.models.library.sbs import ctrl1
+from certiloop.studies.sbs.models import ctrl1
 
 x, y, G, D = Reals("x y G D")
 

@@ -497,7 +497,7 @@ def test_monitor_modules_import_only_numpy(tmp_path):
 
 
 def test_cli_extract_monitors(tmp_path, capsys):
-    from certiloop.proofs.cli.main import main
+    from certiloop.cli.main import main
 
     out = tmp_path / "train_monitors.py"
     args = ["extract", "textbook.train", "--monitors", "-o", str(out), "--cache", str(tmp_path / "c")]

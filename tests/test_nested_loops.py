@@ -155,7 +155,7 @@ def test_a_division_inside_never_reports_ill_defined():
 
 
 def test_the_gate_passes_a_proved_stability_entry_and_skips_its_falsifier(tmp_path, capsys):
-    from certiloop.proofs.cli import main
+    from certiloop.cli import main
 
     archive = tmp_path / "stable.kyx"
     archive.write_text(f'ArchiveEntry "stable" ProgramVariables Real x, t; End. Problem {stability(ONE_D)} '

@@ -2,7 +2,7 @@
 independent certificate check, `certiloop plan` / `check-path`, and tracking.
 
 Independent witnesses: the closed-form kinematics is checked against the 4x4 DH product of
-`kernel/raven.py`; a certificate's verdict is checked against dense float sampling with
+`studies/raven/arm.py`; a certificate's verdict is checked against dense float sampling with
 that same 4x4 product (not the code that proved it); a path straight through the partition
 must be rejected, and sampling shows it does cross. Planning tests need OMPL and are
 skipped (with the reason) without it; the bad-input and no-OMPL tests always run.
@@ -21,13 +21,13 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from certiloop.kernel import raven
-from certiloop.kernel.plan import intervals as iv
-from certiloop.kernel.plan import kinematics
-from certiloop.kernel.plan.certify import enclose_points, prove_segment
-from certiloop.kernel.plan.check import check_run
-from certiloop.kernel.plan.scenes import FRS_BOX, SCENES, box_faces
-from certiloop.proofs.cli.main import main
+from certiloop.cli.main import main
+from certiloop.studies.raven import arm as raven
+from certiloop.studies.raven.plan import intervals as iv
+from certiloop.studies.raven.plan import kinematics
+from certiloop.studies.raven.plan.certify import enclose_points, prove_segment
+from certiloop.studies.raven.plan.check import check_run
+from certiloop.studies.raven.plan.scenes import FRS_BOX, SCENES, box_faces
 
 
 def _have_ompl() -> bool:
@@ -45,7 +45,7 @@ needs_ompl = pytest.mark.skipif(not HAVE_OMPL,
 
 def dense_clearance(scene, qa, qb, points: int = 4001) -> np.ndarray:
     """The least clause slack along a joint segment by float sampling, with the 4x4 DH
-    product of kernel/raven.py (not the closed form the planner uses)."""
+    product of studies/raven/arm.py (not the closed form the planner uses)."""
     t = np.linspace(0.0, 1.0, points)[:, None]
     q = np.asarray(qa) + t * (np.asarray(qb) - np.asarray(qa))
     frames = raven.frames(q, scene.arm)
@@ -104,8 +104,8 @@ def test_outward_rounding_encloses_exact_sums_and_products():
 
 
 def test_planning_modules_load_no_solver_and_no_ompl_until_planning():
-    code = ("import sys, certiloop.kernel.plan.planner, certiloop.kernel.plan.certify, "
-            "certiloop.kernel.plan.check, certiloop.kernel.plan.scenes; "
+    code = ("import sys, certiloop.studies.raven.plan.planner, certiloop.studies.raven.plan.certify, "
+            "certiloop.studies.raven.plan.check, certiloop.studies.raven.plan.scenes; "
             "print(sorted(m for m in ('z3', 'sympy', 'hypothesis', 'scipy', 'ompl', 'mpmath') "
             "if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
@@ -181,7 +181,7 @@ def test_whatever_the_prover_proves_the_checker_accepts_and_sampling_confirms(st
 
 def test_plan_without_ompl_exits_2_with_install_hint():
     code = ("import sys; sys.modules['ompl'] = None\n"
-            "from certiloop.proofs.cli.main import main\n"
+            "from certiloop.cli.main import main\n"
             "sys.exit(main(['plan', 'raven.frs_box', '--samples', '50']))")
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert done.returncode == 2
@@ -291,7 +291,7 @@ def test_check_path_rejects_a_certificate_for_other_planes(planned, tmp_path, ca
 
 @needs_ompl
 def test_same_seed_same_path_and_seeds_differ():
-    from certiloop.kernel.plan.planner import plan_once
+    from certiloop.studies.raven.plan.planner import plan_once
 
     a, b, c = (plan_once(FRS_BOX, 150, s) for s in (4, 4, 5))
     assert a.waypoints == b.waypoints and a.cost == b.cost and a.success == b.success
@@ -300,7 +300,7 @@ def test_same_seed_same_path_and_seeds_differ():
 
 @needs_ompl
 def test_tracking_with_the_fixture_crosses_no_boundary(planned):
-    from certiloop.kernel.plan.track import track
+    from certiloop.studies.raven.plan.track import track
 
     _, doc, _ = planned
     run = next(r for r in doc["runs"] if r["success"])
@@ -316,7 +316,7 @@ def test_tracking_with_the_fixture_crosses_no_boundary(planned):
 
 
 def test_joint_pd_tracking_sees_a_crossing_on_the_straight_path():
-    from certiloop.kernel.plan.track import track_joints
+    from certiloop.studies.raven.plan.track import track_joints
 
     straight = track_joints(FRS_BOX, [FRS_BOX.start, FRS_BOX.goal])
     assert straight.min_clearance < -0.005 and straight.final_error < 2e-3
@@ -324,7 +324,7 @@ def test_joint_pd_tracking_sees_a_crossing_on_the_straight_path():
 
 @needs_ompl
 def test_joint_pd_tracking_of_a_planned_path_reaches_the_goal(planned):
-    from certiloop.kernel.plan.track import track_joints
+    from certiloop.studies.raven.plan.track import track_joints
 
     _, doc, _ = planned
     run = next(r for r in doc["runs"] if r["success"])

@@ -5,8 +5,8 @@ from fractions import Fraction
 import pytest
 
 from certiloop.models import library
-from certiloop.models.library import raven
 from certiloop.proofs.engine.prover import Prover
+from certiloop.studies.raven import models as raven
 
 RAVEN = [n for n in library.names() if n.startswith("raven.")]
 

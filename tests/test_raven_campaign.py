@@ -1,9 +1,16 @@
-"""The fault-injection campaign skeleton (falsify/campaign.py) over the batched closed loop."""
+"""The fault-injection campaign skeleton (studies/raven/campaign/run.py) over the batched closed loop."""
 
 import numpy as np
 import pytest
 
-from certiloop.falsify.campaign import FAULT_KINDS, STREAMS, Fault, Scenario, random_faults, run_campaign
+from certiloop.studies.raven.campaign.run import (
+    FAULT_KINDS,
+    STREAMS,
+    Fault,
+    Scenario,
+    random_faults,
+    run_campaign,
+)
 
 
 def _same(a, b):
@@ -93,9 +100,8 @@ def test_stop_keeps_every_bounded_fault_on_the_safe_side():
 def test_the_fixture_in_the_loop_is_the_kernels_proved_virtual_fixture():
     """The shared model trajectory is what a fresh VirtualFixture (sbs.ctrl2) commands on each
     state, the model integrates exactly, and it never comes nearer the plane than the margin."""
-    from certiloop.falsify.campaign import DT, model_trajectory
-    from certiloop.kernel import VirtualFixture
-
+    from certiloop.studies.raven.campaign.run import DT, model_trajectory
+    from certiloop.studies.sbs.fixture import VirtualFixture
     n = np.array([0.0, 0.0, 1.0])
     positions, velocities, fallbacks = model_trajectory(600, 0.006, 0.1, 2.0, 0.02, tuple(n))
     for t in range(0, 600, 7):

@@ -13,10 +13,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from certiloop.falsify.evaluate import Compiler
-from certiloop.kernel import deviation as dev
-from certiloop.kernel import raven as arm
 from certiloop.models.lang.programs import Choice, Seq, Test, children
-from certiloop.models.library import raven as models
+from certiloop.studies.raven import arm, models
+from certiloop.studies.raven import deviation as dev
 
 coord = st.floats(-0.1, 0.1, allow_nan=False, allow_infinity=False)
 vec = st.tuples(coord, coord, coord)
@@ -27,7 +26,7 @@ TOL = dev.TOL
 
 
 def test_kernels_load_no_solver_or_test_tool():
-    code = ("import sys, certiloop.kernel.raven, certiloop.kernel.deviation; "
+    code = ("import sys, certiloop.studies.raven.arm, certiloop.studies.raven.deviation; "
             "print(sorted(m for m in ('z3', 'sympy', 'hypothesis', 'scipy', 'ompl') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"

@@ -7,9 +7,9 @@ from fractions import Fraction
 import pytest
 
 from certiloop.models import library
-from certiloop.models.library import rcm
 from certiloop.proofs.core.exact import evaluate
 from certiloop.proofs.engine.prover import Prover
+from certiloop.studies.rcm.models import constraint as rcm
 
 NAMES = [n for n in library.names() if n.startswith("rcm.")]
 
@@ -94,7 +94,8 @@ def test_the_guard_is_proved_with_its_step_always_runnable(results):
 # --------------------------------------------------------------------------- energy: mutants never prove
 
 from certiloop.models.lang.terms import Reals  # noqa: E402
-from certiloop.models.library import rcm_energy, rcm_lyapunov  # noqa: E402
+from certiloop.studies.rcm.models import energy as rcm_energy  # noqa: E402
+from certiloop.studies.rcm.models import lyapunov as rcm_lyapunov  # noqa: E402
 
 
 @pytest.mark.parametrize("floor", [Fraction(-1, 100), Fraction(-1), Fraction(-100)])

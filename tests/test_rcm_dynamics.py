@@ -1,4 +1,4 @@
-"""The seed-001 7-DOF controller (kernel/rcm_dynamics.py, rcm_cloud.py, rcm_demo.py), each claim
+"""The seed-001 7-DOF controller (studies/rcm/dynamics.py, rcm_cloud.py, rcm_demo.py), each claim
 checked against something the kernel does not compute itself: a separately coded DH product,
 rcm.rcm_error / rcm.barrier_force_axial, brute-force distances, the closed-form solution of (25)."""
 
@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from certiloop.kernel import rcm
-from certiloop.kernel.rcm_cloud import CloudBarrier
-from certiloop.kernel.rcm_demo import D_C, P_C, P_C_PAPER, TOOL_LENGTH, demo_controller
-from certiloop.kernel.rcm_dynamics import TABLE1, RcmAdmittance, mapping, variable_damping
+from certiloop.studies.rcm import kernel as rcm
+from certiloop.studies.rcm.cloud import CloudBarrier
+from certiloop.studies.rcm.demo import D_C, P_C, P_C_PAPER, TOOL_LENGTH, demo_controller
+from certiloop.studies.rcm.dynamics import TABLE1, RcmAdmittance, mapping, variable_damping
 
 RNG = np.random.default_rng(14)
 NEAR_ANCHOR = [rcm.Q_ANCHOR + RNG.uniform(-0.4, 0.4, 7) for _ in range(12)]
@@ -327,7 +327,7 @@ def test_demo_controller_is_exported_from_rcm_and_step_is_one_period():
 
 
 def test_the_controller_imports_no_prover_or_test_library():
-    code = ("import sys, certiloop.kernel.rcm as r; r.demo_controller(points=10).step(); "
+    code = ("import sys, certiloop.studies.rcm.kernel as r; r.demo_controller(points=10).step(); "
             "print(sorted(m for m in ('z3', 'sympy', 'hypothesis', 'cvxpy') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

@@ -1,5 +1,5 @@
-"""The extracted seed-001 guard (kernel/rcm_guard.py from rcm.axial_guard): shipped byte for byte
-as a fresh extraction, pinned to the model's hash, called by kernel.rcm.guard_speed, and its
+"""The extracted guard (studies/rcm/generated/axial_guard.py from rcm.axial_guard): shipped byte for
+byte as a fresh extraction, pinned to the model's hash, called by kernel.rcm.guard_speed, and its
 decisions the model's own, replayed in exact rationals by the interpreter."""
 
 import subprocess
@@ -10,16 +10,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from certiloop.kernel import rcm as k
-from certiloop.kernel import rcm_arm, rcm_guard
-from certiloop.kernel.extract import SHIPPED, shipped_drift
+from certiloop.kernel.extract import shipped, shipped_drift
 from certiloop.models import library
+from certiloop.studies.rcm import arm as rcm_arm
+from certiloop.studies.rcm import kernel as k
+from certiloop.studies.rcm.generated import axial_guard as rcm_guard
 
 GUARD = library.get("rcm.axial_guard")
 
 
 def test_shipped_guard_is_a_fresh_extraction_of_the_proved_model():
-    assert SHIPPED["rcm.axial_guard"] == "rcm_guard.py"
+    assert shipped()["rcm.axial_guard"][0].name == "axial_guard.py"
     assert shipped_drift("rcm.axial_guard") == ""
     assert (rcm_guard.MODEL, rcm_guard.MODEL_HASH) == ("rcm.axial_guard", GUARD.content_hash)
 
@@ -45,7 +46,7 @@ def test_guard_speed_runs_the_extracted_code(monkeypatch):
 
 
 def test_guard_speed_imports_no_prover():
-    code = ("import sys; from certiloop.kernel import rcm; rcm.guard_speed(0.01, 1.0, 0.001); "
+    code = ("import sys; from certiloop.studies.rcm import kernel as rcm; rcm.guard_speed(0.01, 1.0, 0.001); "
             "print(sorted(m for m in ('z3', 'sympy', 'hypothesis', 'scipy') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"

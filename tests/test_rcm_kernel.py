@@ -1,4 +1,4 @@
-"""The seed-001 kernel (certiloop.kernel.rcm): kinematics, null space, the paper's 4 ms
+"""The seed-001 kernel (certiloop.studies.rcm.kernel): kinematics, null space, the paper's 4 ms
 crossing with the exact barrier, and the proved guard against its model."""
 
 import ast
@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from certiloop.kernel import rcm as k
 from certiloop.models import library
 from certiloop.models.lang.programs import Choice, Loop, Seq, Test
 from certiloop.proofs.core.exact import evaluate
+from certiloop.studies.rcm import kernel as k
 
 RNG = np.random.default_rng(20261123)
 RANDOM_Q = [RNG.uniform(-2.0, 2.0, 7) for _ in range(20)]
@@ -207,7 +207,7 @@ def test_guard_speed_and_guarded_step_never_nan(g, w, f, m):
 
 
 def test_the_kernel_imports_no_prover_or_test_library():
-    from certiloop.kernel import rcm_arm  # the kernel itself (kernel.rcm re-exports it)
+    from certiloop.studies.rcm import arm as rcm_arm  # the kernel itself (kernel.rcm re-exports it)
 
     tree = ast.parse(Path(rcm_arm.__file__).read_text())
     mods = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}

@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from certiloop.models import library
-from certiloop.models.library import rcm_lyapunov as L
 from certiloop.proofs.arith.lyapunov import check_discrete_lyapunov, propose_discrete_lyapunov
+from certiloop.studies.rcm.models import lyapunov as L
 
 
 def _V(P, z):

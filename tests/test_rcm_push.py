@@ -1,4 +1,4 @@
-"""The human-force search on seed 001's controller (falsify/rcm_push.py): the paper's 4 ms
+"""The human-force search on seed 001's controller (studies/rcm/push.py): the paper's 4 ms
 explicit Euler lets a push into the cloud, the proved guard does not, under the same search.
 Small clouds and horizons keep these quick; `certiloop falsify rcm.push_euler` runs the full one."""
 
@@ -7,10 +7,10 @@ import json
 import numpy as np
 import pytest
 
-from certiloop.falsify import rcm_push as rp
-from certiloop.kernel.rcm_arm import tool_tip
-from certiloop.kernel.rcm_demo import D_C
-from certiloop.proofs.cli.main import main
+from certiloop.cli.main import main
+from certiloop.studies.rcm import push as rp
+from certiloop.studies.rcm.arm import tool_tip
+from certiloop.studies.rcm.demo import D_C
 
 SMALL = {"max_examples": 20, "points": 300, "horizon": 200, "tighten": 1}
 

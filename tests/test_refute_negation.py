@@ -112,7 +112,7 @@ def test_negate_is_the_negation(f):
 
 
 def test_cli_shows_a_state_not_a_run():
-    proc = subprocess.run([sys.executable, "-m", "certiloop.proofs.cli", "prove",
+    proc = subprocess.run([sys.executable, "-m", "certiloop.cli", "prove",
                            f'{FALSE}:"parallel flows never meet"', "--json", "-"], capture_output=True,
                           text=True, timeout=300, env={**os.environ, "COLUMNS": "200"})
     data = json.loads(proc.stdout)[0] if proc.stdout.startswith("[") else json.loads(proc.stdout)

@@ -215,7 +215,7 @@ def test_falsify_follows_a_flow_up_to_its_finite_escape_time():
 
 
 def test_gate_fails_a_model_whose_assumptions_no_run_can_meet(tmp_path, capsys):
-    from certiloop.proofs.cli.main import main
+    from certiloop.cli.main import main
 
     model = tmp_path / "vacuous_models.py"
     model.write_text("from certiloop.models import And, Reals, Theorem, assign\n"

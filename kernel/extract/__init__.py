@@ -14,7 +14,7 @@ What is extracted — "the control step" of the model's outer loop:
 Two code shapes, each documented in the generated module's docstring:
   * a step over a family of boundaries (a `foreach`, or reads of families) is vectorised
     with numpy over the family, one mask per alternative of each choice (the shape of the
-    shipped `kernel/ctrl2.py`);
+    shipped `studies/sbs/generated/ctrl2.py`);
   * everything else (scalar controllers, algorithms) is plain scalar Python with `if`/`elif`
     chains and `for` loops; reals are converted to numpy float64 on entry, so a division by
     zero or an overflow gives inf/NaN (reported as "no run"), never an exception.
@@ -56,7 +56,7 @@ The package, one job a module (no module imports one listed after it):
   * vectorised — the numpy code over a family of boundaries;
   * scalar — the plain Python code (`if`/`elif`, `for` loops);
   * generate — `extract`: choose the shape, generate, name the model in every refusal;
-  * shipped — the shipped kernels (SHIPPED, SHIPPED_C) and `shipped_drift`;
+  * shipped — the case studies' generated kernels (`shipped()`), `shipped_drift` and `regenerate`;
   * c_syntax, c_certified, c_family, c_scalar, c — `extract_c` (`--lang c`): the same walk
     written as C99 (a `for` loop over the boundaries for a family, `if`/`else if` chains for
     choices), every decision certified by the filter of `certified` (three-valued, UNDECIDED
@@ -71,6 +71,6 @@ The package, one job a module (no module imports one listed after it):
 from certiloop.kernel.extract.analysis import controller
 from certiloop.kernel.extract.errors import ExtractError
 from certiloop.kernel.extract.generate import extract
-from certiloop.kernel.extract.shipped import SHIPPED, SHIPPED_C, shipped_drift
+from certiloop.kernel.extract.shipped import shipped, shipped_drift
 
-__all__ = ["SHIPPED", "SHIPPED_C", "ExtractError", "controller", "extract", "shipped_drift"]
+__all__ = ["ExtractError", "controller", "extract", "shipped", "shipped_drift"]

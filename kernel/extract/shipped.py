@@ -1,45 +1,66 @@
-"""The kernels this package ships, generated from their models (SHIPPED: model -> module
-in `certiloop.kernel`; SHIPPED_C: model -> its C kernel in `kernel/c/`), and `shipped_drift`,
-which says whether a shipped kernel (Python, and C where there is one) is still byte-for-byte
-a fresh extraction of its model (the gate fails when it is not)."""
+"""The kernels the case studies ship, generated from their models, and whether each is still
+byte-for-byte a fresh extraction (`shipped_drift`; the gate fails when one is not).
+
+Which files are generated from which model is each study's declaration (`Study.generated` in
+the registry): a Python module, and for some models a folder with the C kernel.
+`python -m certiloop.studies regenerate` rewrites them all."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 from certiloop.kernel.extract.generate import extract
 
-# model -> module in certiloop.kernel generated from it
-SHIPPED = {"sbs.ctrl2": "ctrl2.py", "cfmpa.builtdr": "cfmpa_builtdr.py", "cfmpa.check_path": "cfmpa_check.py",
-           "rcm.axial_guard": "rcm_guard.py"}
-SHIPPED_C = {"sbs.ctrl2": "c"}  # model -> folder of certiloop.kernel holding its C kernel
+REGENERATE = "python -m certiloop.studies regenerate"
 
 
-def shipped_drift(model: str) -> str:
-    """"" if the shipped kernel module is exactly a fresh extraction of `model`, else why not."""
-    from pathlib import Path
+def shipped() -> dict[str, tuple[Path, Path | None]]:
+    """model -> (its generated Python module, the folder of its generated C kernel or None)."""
+    import importlib
 
-    from certiloop.models import library
+    from certiloop.models.library.registry import studies
 
-    path = Path(__file__).parent.parent / SHIPPED[model]
-    fresh = extract(library.get(model))
-    if not path.exists():
-        return f"{path} is missing"
-    if path.read_text() != fresh:
-        return (f"{path.name} differs from a fresh extraction of {model}: the model changed since it was "
-                f"extracted; run `certiloop extract {model} -o kernel/{path.name}`")
-    return shipped_c_drift(model) if model in SHIPPED_C else ""
+    found = {}
+    for study in studies():
+        if not study.generated:
+            continue
+        root = Path(importlib.import_module(study.package).__file__).parent
+        for model, (module, c_folder) in study.generated.items():
+            found[model] = (root / module, root / c_folder if c_folder else None)
+    return found
 
 
-def shipped_c_drift(model: str) -> str:
-    """"" if the shipped C kernel of `model` is exactly a fresh `extract_c`, else why not."""
-    from pathlib import Path
-
+def fresh_files(model: str) -> dict[Path, str]:
+    """Every file generated from `model`, with the text a fresh extraction gives it."""
     from certiloop.kernel.extract.c import extract_c
     from certiloop.models import library
 
-    folder = Path(__file__).parent.parent / SHIPPED_C[model]
-    for name, text in extract_c(library.get(model)).items():
-        path = folder / name
-        if not path.exists() or path.read_text() != text:
-            return (f"kernel/{SHIPPED_C[model]}/{name} is not a fresh C extraction of {model}; run "
-                    f"`certiloop extract {model} --lang c -o kernel/{SHIPPED_C[model]}`")
+    module, c_folder = shipped()[model]
+    theorem = library.get(model)
+    files = {module: extract(theorem)}
+    if c_folder is not None:
+        files.update({c_folder / name: text for name, text in extract_c(theorem).items()})
+    return files
+
+
+def shipped_drift(model: str) -> str:
+    """"" if every file generated from `model` is exactly a fresh extraction, else why not."""
+    for path, text in fresh_files(model).items():
+        if not path.exists():
+            return f"{path} is missing; run `{REGENERATE}`"
+        if path.read_text() != text:
+            return (f"{path.name} differs from a fresh extraction of {model}: the model changed since it was "
+                    f"extracted; run `{REGENERATE}`")
     return ""
+
+
+def regenerate() -> list[Path]:
+    """Rewrite every generated file that differs from a fresh extraction; the paths rewritten."""
+    written = []
+    for model in shipped():
+        for path, text in fresh_files(model).items():
+            if not path.exists() or path.read_text() != text:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_text(text)
+                written.append(path)
+    return written

@@ -2,7 +2,7 @@
 reads of families) becomes numpy code over every boundary at once, one mask per alternative of
 each choice, `np.where` picking the first enabled alternative's value, and a min-update inside
 a `foreach` becoming a reduction (`k = min(k, min of kt)`). This is the shape of the shipped
-`kernel/ctrl2.py`; `_vectorised` returns the whole generated module's source."""
+`studies/sbs/generated/ctrl2.py`; `_vectorised` returns the whole generated module's source."""
 
 from __future__ import annotations
 

@@ -1,0 +1,3 @@
+from certiloop.cli.main import run
+
+run()

@@ -1,0 +1,107 @@
+"""`certiloop prove`: split models into obligations, discharge them, report."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from certiloop.cli import options
+from certiloop.cli.errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INCONSISTENT, EXIT_OK
+
+
+def add_parser(sub) -> None:
+    prove = sub.add_parser(
+        "prove", help="generate and discharge proof obligations",
+        description="Prove MODEL(s): split each into proof obligations, discharge them with z3, "
+        "and, if any is not proved, search for a run that violates the guarantee. "
+        "Exit 0 if every obligation of every model is proved, 1 otherwise.")
+    prove.add_argument("models", nargs="+", metavar="MODEL",
+                       help="library name (sbs.ctrl1) or path/to/file.py:theorem")
+    prove.add_argument("--json", metavar="F", help="write results as JSON to F ('-' for stdout)")
+    prove.add_argument("--smtlib", metavar="DIR", help="write every obligation as an SMT-LIB 2.6 file")
+    options.budget_flags(prove)
+    options.cross_check_flag(prove)
+    prove.add_argument("--jobs", metavar="N", type=int, default=None,
+                       help="worker processes (default: number of cores)")
+    prove.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
+                       "(tcp://host:8786; needs certiloop[distributed])")
+    options.verbosity_flags(prove, "every obligation with its backend or reason")
+
+
+def run(args: argparse.Namespace) -> int:
+    options.check_common(args)
+    options.check_outputs(("--json", args.json, "file or -"), ("--smtlib", args.smtlib, "folder"))
+    from certiloop.cli.loading import Unsupported, load_all
+
+    theorems = load_all(args.models, keep_unsupported=True)  # all bad names fail before any work
+
+    from certiloop.cli import ui
+    from certiloop.cli.report import show_result, show_unsupported
+    from certiloop.models.lang.terms import ModelError
+    from certiloop.proofs.engine.prover import Prover
+
+    out, level = options.console(stderr=args.json == "-"), ui.verbosity(args)
+    smt_dir = Path(args.smtlib) if args.smtlib else None
+    start, results, docs, unsupported = time.perf_counter(), [], [], []
+    try:
+        with Prover(jobs=args.jobs, budget=options.budget(args), executor=args.executor) as prover, \
+                ui.ModelProgress("proving", len(theorems), level > ui.QUIET) as progress:
+            for theorem in theorems:
+                progress.model(theorem.name)
+                try:
+                    with options.naming(theorem.name):
+                        if isinstance(theorem, Unsupported):
+                            raise ModelError(theorem.reason)
+                        result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
+                                              smtlib_dir=smt_dir)
+                except ModelError as exc:  # one of several models: its row, and the others run
+                    if len(theorems) == 1:
+                        raise
+                    unsupported.append(Unsupported(theorem.name, str(exc).removeprefix(f"{theorem.name}: ")))
+                    show_unsupported(out, theorem.name, unsupported[-1].reason)
+                    docs.append(unsupported[-1].to_json())
+                    continue
+                if args.cross_check:
+                    cross_check(result)
+                show_result(out, result, level)
+                results.append(result)
+                docs.append(result.to_json())
+    except KeyboardInterrupt:
+        options.write_json(args.json, options.json_payload(docs, len(theorems)))
+        raise
+    proved = sum(r.verdict == "proved" for r in results)
+    missing = f", {len(unsupported)} not supported" if unsupported else ""
+    ui.say(out, f"{proved} of {len(theorems)} model{'s' * (len(theorems) != 1)} proved{missing} "
+                f"({time.perf_counter() - start:.1f} s)")
+    options.write_json(args.json, options.json_payload(docs, len(theorems)))
+    return prove_exit(results, unsupported)
+
+
+
+def prove_exit(results: list, unsupported: list = ()) -> int:
+    alarms = [r for r in results if r.extra.get("cross_check", {}).get("disagreements")]
+    for r in alarms:
+        print(f"certiloop: SOUNDNESS ALARM: cvc5 disagrees with z3 on {r.model}: "
+              f"{r.extra['cross_check']['summary']}; please report this certiloop bug", file=sys.stderr)
+    if alarms or any(r.inconsistent for r in results):
+        return EXIT_INCONSISTENT
+    for r in results:
+        if r.ill_defined:
+            print(f"certiloop: error: {r.model} is {r.reason}", file=sys.stderr)
+    options.name_unsupported(unsupported)
+    if any(r.ill_defined for r in results) or unsupported:
+        return EXIT_BAD_INPUT
+    all_proved = all(r.verdict == "proved" and r.nonblocking_verdict in (None, "proved") for r in results)
+    return EXIT_OK if all_proved else EXIT_FAILED
+
+
+
+def cross_check(result) -> None:
+    """cvc5's opinion on every form z3 proved, kept in the result (shown, and in --json)."""
+    from certiloop.proofs.engine.second_opinion import second_opinion
+
+    opinion = second_opinion(result.obligations + (result.nonblocking or []))
+    result.extra["cross_check"] = {**opinion.to_json(), "summary": opinion.summary}
+

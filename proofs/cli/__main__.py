@@ -1,3 +1,0 @@
-from certiloop.proofs.cli.main import run
-
-run()

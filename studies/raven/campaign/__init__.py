@@ -1,0 +1,1 @@
+"""Fault-injection campaigns over a batched closed loop of the Raven-II deviation monitor."""

@@ -1,0 +1,241 @@
+"""The seed-001 target dynamics (22)-(23) for the 7-DOF LWR4+, integrated at 250 Hz.
+
+q'' = -S [h; u] + Z^T Z J_t^T (F_th + F_r), with S = [A^dagger  Z^T] (21),
+h = A' q' + 2 alpha x_c' + beta^2 x_c and u = D_f x_f' + d(Z^daggerT)/dt q' (23); so the
+constraint coordinates obey x_c'' + 2 alpha x_c' + beta^2 x_c = 0 (25) and the free ones
+x_f'' + D_f x_f' = Z J_t^T F (27). A' and d(Z^daggerT)/dt are backward differences, as in the paper.
+
+`RcmAdmittance.step(wrench)` integrates one period with the paper's explicit Euler ("euler") or
+semi-implicit Euler ("semi-implicit": the velocity first, then the position with the new
+velocity), then applies the proved guard `rcm.guard_speed`: the sweep of any tool point in one
+period is at most sum_j |dq_j| L_j (L_j: the link lengths from joint j to the tip, a bound on the
+lever arm), so scaling the joint step by k = guard_speed(gap, sweep/dt)/(sweep/dt) keeps every
+gap >= margin for the whole period. Anything non-finite, singular or already inside gives a hold
+(q unchanged, q' = 0) with a reason; nothing here returns NaN.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from certiloop.studies.rcm.arm import DH_D, _frames, guard_speed
+from certiloop.studies.rcm.cloud import CloudBarrier
+
+# ATI Mini40 ranges (force N, torque N m): a larger reading is clipped, a non-finite one refused.
+FORCE_RANGE, TORQUE_RANGE = 240.0, 4.0
+JOINT_LIMITS = np.radians([170, 120, 170, 120, 170, 120, 170])
+SIGMA_FLOOR = 1e-3          # smallest singular value of J_t accepted
+TRACKING_TOL = 5e-3         # rad: the paper's "faithful tracking" premise, checked when q is measured
+
+
+@dataclass(frozen=True)
+class Gains:
+    """Table 1 of the paper; D_f elements 1 (axial), 2-4 (angular), 5 (redundancy)."""
+    alpha: float = 25.0
+    beta: float = 25.0
+    w: float = 1.5
+    d0: float = 0.0115
+    k: float = 0.01
+    d_const: tuple = (10.0, 4.0, 4.0, 4.0, 60.0)
+    q_gain: tuple = (25.0, 20.0, 20.0, 20.0, 0.0)
+    m_gain: tuple = (22.0, 19.0, 19.0, 19.0, 0.0)
+    g_gain: tuple = (60.0, 30.0, 30.0, 30.0, 0.0)
+    c_gain: tuple = (0.01, 0.2, 0.2, 0.2, 0.0)
+
+
+TABLE1 = Gains()
+
+
+def variable_damping(xf_dot: np.ndarray, f_rx: np.ndarray, g: Gains = TABLE1) -> np.ndarray:
+    """diag(D_f) = D_c + Q exp(-M s) + G (1 - exp(-C z^2)) (43)-(45): s and z are |.| of the axial
+    element and ||.|| of elements 2-4 of x_f' and of F_rx = Z_x F_r (the erratum's Z_x, not Z_x^T)."""
+    s = np.array([abs(xf_dot[0]), *[np.linalg.norm(xf_dot[1:4])] * 3, 0.0])
+    z = np.array([abs(f_rx[0]), *[np.linalg.norm(f_rx[1:4])] * 3, 0.0])
+    return (np.asarray(g.d_const) + np.asarray(g.q_gain) * np.exp(-np.asarray(g.m_gain) * s)
+            + np.asarray(g.g_gain) * (1.0 - np.exp(-np.asarray(g.c_gain) * z * z)))
+
+
+def hat(r: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
+
+
+def redundancy_row(J: np.ndarray) -> np.ndarray:
+    """G (1x7) with G J^T = 0: signed 6x6 cofactors (continuous, unlike an SVD null vector), unit norm."""
+    minors = np.stack([np.delete(J, i, axis=1) for i in range(7)])
+    g = np.linalg.det(minors) * np.array([1, -1, 1, -1, 1, -1, 1])
+    return g / np.linalg.norm(g)
+
+
+@dataclass
+class Mapping:
+    """Everything (15)-(21) defines at one configuration."""
+    p_t: np.ndarray
+    p_e: np.ndarray
+    n: np.ndarray
+    J: np.ndarray          # J_t, 6x7
+    x_c: np.ndarray        # (1)
+    A: np.ndarray          # 2x7 (7)
+    Z_x: np.ndarray        # 4x6 (15)
+    Z: np.ndarray          # 5x7 (16)
+    A_dag: np.ndarray      # 7x2 (18)
+    Z_dag_T: np.ndarray    # 5x7 (19)
+    sigma_min: float
+
+
+def mapping(q: np.ndarray, p_c: np.ndarray, tool_length: float) -> Mapping:
+    """(15)-(21) at q. W = w I as in Table 1: a scalar W cancels in both pseudo-inverses."""
+    frames = np.stack(_frames(q))                     # one DH pass (rcm_arm.py's table) for pose and J
+    T = frames[-1]
+    n, a, o = T[:3, 2], T[:3, 0], T[:3, 1]
+    p_e = T[:3, 3]
+    p_t = p_e + tool_length * n
+    axes, origins = frames[:7, :3, 2], frames[:7, :3, 3]
+    J = np.vstack([np.cross(axes, p_t - origins).T, axes.T])   # as rcm.lwr4_jacobian, vectorised
+    r = p_t - p_c
+    Bt = np.vstack([a, o])
+    x_c = Bt @ r
+    A = np.hstack([Bt, Bt @ hat(r)]) @ J
+    Z_x = np.zeros((4, 6))
+    Z_x[0, :3] = n
+    Z_x[1:, :3] = hat(r)
+    Z_x[1:, 3:] = np.eye(3)
+    Z = np.vstack([Z_x @ np.linalg.solve(J @ J.T, J), redundancy_row(J)])
+    A_dag = A.T @ np.linalg.inv(A @ A.T)               # W = w I: the w cancels in (18)
+    Z_dag_T = np.linalg.solve(Z @ Z.T, Z)              # (Z W Z^T)^-1 Z W with W = w I
+    sigma_min = float(np.linalg.svd(J, compute_uv=False)[-1])
+    return Mapping(p_t, p_e, n, J, x_c, A, Z_x, Z, A_dag, Z_dag_T, sigma_min)
+
+
+@dataclass(frozen=True)
+class StepResult:
+    q: np.ndarray          # the next q_d (7, rad)
+    qdot: np.ndarray       # the next q_d' (7, rad/s)
+    x_c: np.ndarray        # RCM error at the start of the step (m)
+    gap: float             # lower bound on the clearance at the start of the step (m)
+    scale: float           # guard factor k in [0, 1]
+    ok: bool
+    reason: str
+
+
+@dataclass
+class RcmAdmittance:
+    """The controller state (q_d, q_d') and its configuration; `step` advances one period."""
+    q: np.ndarray
+    p_c: np.ndarray
+    barrier: CloudBarrier
+    tool_length: float = 0.43
+    mode: str = "tip"                  # "tip" or "tool" (the capsule)
+    integrator: str = "euler"          # "euler" (the paper's) or "semi-implicit"
+    guard: bool = True
+    margin: float = 2e-4               # the guard keeps every gap >= margin
+    dt: float = 0.004
+    gains: Gains = TABLE1
+    wrench: np.ndarray = field(default_factory=lambda: np.zeros(6))   # F_h at the flange, base frame
+    qdot: np.ndarray = field(default_factory=lambda: np.zeros(7))
+    penetrated: bool = False
+    _prev: tuple | None = None
+
+    def __post_init__(self):
+        if self.mode not in ("tip", "tool"):
+            raise ValueError(f"mode must be 'tip' or 'tool', not {self.mode!r}")
+        if self.integrator not in ("euler", "semi-implicit"):
+            raise ValueError(f"integrator must be 'euler' or 'semi-implicit', not {self.integrator!r}")
+        self.q = np.asarray(self.q, dtype=float).reshape(7).copy()
+        self.p_c = np.asarray(self.p_c, dtype=float).reshape(3)
+        # lever-arm bound per joint: distance from joint j's origin to any tool point
+        self.lever = np.array([DH_D[j:].sum() for j in range(7)]) + self.tool_length
+
+    def _hold(self, reason: str, x_c=None, gap: float = 0.0) -> StepResult:
+        self.qdot = np.zeros(7)
+        self._prev = None
+        xc = np.zeros(2) if x_c is None or not np.all(np.isfinite(x_c)) else x_c
+        return StepResult(self.q.copy(), self.qdot.copy(), xc, gap if math.isfinite(gap) else 0.0,
+                          0.0, False, reason)
+
+    def step(self, wrench=None, q_measured=None) -> StepResult:
+        """One period from the human wrench (default: `self.wrench`). With `q_measured`, a robot
+        more than TRACKING_TOL from the last q_d (the proofs assume it tracks) gives a hold."""
+        try:
+            F_h = np.asarray(self.wrench if wrench is None else wrench, dtype=float).reshape(6)
+        except (TypeError, ValueError):
+            return self._hold("malformed human wrench (need 6 numbers)")
+        if not np.all(np.isfinite(F_h)):
+            return self._hold("non-finite human wrench")
+        if q_measured is not None:
+            try:
+                q_msr = np.asarray(q_measured, dtype=float).reshape(7)
+            except (TypeError, ValueError):
+                return self._hold("malformed measured joints (need 7 numbers)")
+            if not np.max(np.abs(q_msr - self.q)) <= TRACKING_TOL:      # NaN fails this too
+                return self._hold("tracking error: the robot is not following q_d")
+        F_h = _clip_wrench(F_h)
+        g, dt = self.gains, self.dt
+        m = mapping(self.q, self.p_c, self.tool_length)
+        if not m.sigma_min > SIGMA_FLOOR:
+            return self._hold("Jacobian near singular", m.x_c)
+        if self.mode == "tip":
+            f, gap = self.barrier.tip(m.p_t)
+            F_r = np.concatenate([f, np.zeros(3)])
+        else:
+            F_r, gap = self.barrier.capsule(m.p_t, m.n, self.tool_length)
+        if gap <= 0.0:
+            self.penetrated = True
+            return self._hold("inside the forbidden region", m.x_c, gap)
+        qd = self.qdot
+        if self._prev is None:
+            A_dot, Zd_dot = np.zeros_like(m.A), np.zeros_like(m.Z_dag_T)
+        else:
+            A_dot, Zd_dot = (m.A - self._prev[0]) / dt, (m.Z_dag_T - self._prev[1]) / dt
+        xc_dot, xf_dot = m.A @ qd, m.Z_dag_T @ qd
+        F_th = np.concatenate([F_h[:3], F_h[3:] + hat(m.p_e - m.p_t) @ F_h[:3]])   # T_te F_h (22)
+        D_f = variable_damping(xf_dot, m.Z_x @ F_r, g)
+        h = A_dot @ qd + 2 * g.alpha * xc_dot + g.beta**2 * m.x_c
+        u = D_f * xf_dot + Zd_dot @ qd
+        force = m.Z @ (m.J.T @ (F_th + F_r))
+        qdd = -(m.A_dag @ h + m.Z.T @ u) + m.Z.T @ force
+        if self.integrator == "euler":
+            q_next, qd_next = self.q + dt * qd, qd + dt * qdd
+        else:
+            qd_next = qd + dt * qdd
+            q_next = self.q + dt * qd_next
+        scale = 1.0
+        if self.guard:
+            scale = self._guard_scale(q_next - self.q, gap)
+            if scale < 1.0:
+                q_next = self.q + scale * (q_next - self.q)
+                qd_next = scale * qd_next
+        if not (np.all(np.isfinite(q_next)) and np.all(np.isfinite(qd_next))):
+            return self._hold("non-finite step", m.x_c, gap)
+        if np.any(np.abs(q_next) > JOINT_LIMITS):
+            return self._hold("joint limit", m.x_c, gap)
+        self._prev = (m.A, m.Z_dag_T)
+        self.q, self.qdot = q_next, qd_next
+        reason = "" if scale == 1.0 else "limited by the guard"
+        return StepResult(q_next.copy(), qd_next.copy(), m.x_c, gap, scale, True, reason)
+
+    def _guard_scale(self, dq: np.ndarray, gap: float) -> float:
+        """k in [0, 1] with k * sweep <= gap - margin, from the proved guard_speed."""
+        sweep = float(np.abs(dq) @ self.lever)          # any tool point moves at most this far
+        if sweep == 0.0 or math.isinf(gap):
+            return 1.0
+        if not math.isfinite(sweep):
+            return 0.0
+        speed = sweep / self.dt
+        allowed = guard_speed(gap, speed, self.margin, self.dt)
+        k = min(1.0, max(0.0, allowed / speed))
+        while k > 0.0 and k * speed * self.dt > gap - self.margin:   # rounding: never overshoot
+            k = math.nextafter(k, 0.0)
+        return k
+
+
+def _clip_wrench(F: np.ndarray) -> np.ndarray:
+    f, t = F[:3], F[3:]
+    nf, nt = math.hypot(*f), math.hypot(*t)             # hypot: no overflow for huge readings
+    if nf > FORCE_RANGE:
+        f = f * (FORCE_RANGE / nf)
+    if nt > TORQUE_RANGE:
+        t = t * (TORQUE_RANGE / nt)
+    return np.concatenate([f, t])
