@@ -42,6 +42,7 @@ class GateEntry:
     cross_check: dict[str, Any] | None = None  # cvc5's second opinion (gate --cross-check)
     inconsistent: bool = False  # proofs and a confirmed run disagree: a certiloop bug
     cached: bool = False
+    vacuous: str = ""  # why the proof says nothing (unsatisfiable assumptions, a blocked first step)
 
     @property
     def alarm(self) -> bool:
@@ -73,6 +74,8 @@ class GateEntry:
             out.append(f"the falsifier could not start a single run: {self.falsify['note']}")
         elif self.expected == "refuted" and self.falsify and not found and not self.falsify.get("skipped"):
             out.append(f"the falsifier found no violating run in {self.falsify.get('examples')} examples")
+        if self.vacuous:
+            out.append(f"vacuous: {self.vacuous}")
         if self.nonblocking is not None and self.nonblocking["verdict"] != "proved":
             out.append("the vacuity check is not proved: the control step may block")
         if self.kernel:
@@ -96,14 +99,15 @@ class GateEntry:
                 "counterexample": self.counterexample, "replay": self.replay, "falsify": self.falsify,
                 "kernel": self.kernel, "nonblocking": self.nonblocking, "obligations": self.obligations,
                 "cross_check": self.cross_check, "inconsistent": self.inconsistent, "cached": self.cached,
-                "passed": self.passed, "message": self.message}
+                "passed": self.passed, "message": self.message,
+                **({"vacuous": self.vacuous} if self.vacuous else {})}
 
     @classmethod
     def from_json(cls, data: dict[str, Any]) -> "GateEntry":
         keep = {k: data.get(k) for k in ("model", "expected", "verdict", "seconds", "obligations", "reason",
                                          "counterexample", "replay", "falsify", "kernel", "nonblocking",
                                          "cross_check", "inconsistent")}
-        return cls(**keep, cached=True)
+        return cls(**keep, cached=True, vacuous=data.get("vacuous", ""))
 
 
 AHEAD = 2  # falsifiers queued ahead of the model being proved: while the main process builds
@@ -163,7 +167,7 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
     data = result.to_json()
     return GateEntry(theorem.name, theorem.expected, result.verdict, time.perf_counter() - start,
                      data["obligations"], result.reason, data["counterexample"], replay, summary, kernel,
-                     data.get("nonblocking"), opinion, result.inconsistent)
+                     data.get("nonblocking"), opinion, result.inconsistent, vacuous=result.vacuous)
 
 
 def _unsupported(model: str, reason: str, expected: str = "proved") -> GateEntry:

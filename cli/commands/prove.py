@@ -23,6 +23,9 @@ def add_parser(sub) -> None:
     prove.add_argument("--smtlib", metavar="DIR", help="write every obligation as an SMT-LIB 2.6 file")
     options.budget_flags(prove)
     options.cross_check_flag(prove)
+    prove.add_argument("--allow-vacuous", action="store_true",
+                       help="accept a proof that says nothing (unsatisfiable assumptions, or a first control "
+                       "step no run gets through); without it such a model is 'vacuous' and fails (exit 1)")
     prove.add_argument("--jobs", metavar="N", type=int, default=None,
                        help="worker processes (default: number of cores)")
     prove.add_argument("--executor", metavar="URL", help="discharge obligations on a Dask scheduler "
@@ -76,11 +79,11 @@ def run(args: argparse.Namespace) -> int:
     ui.say(out, f"{proved} of {len(theorems)} model{'s' * (len(theorems) != 1)} proved{missing} "
                 f"({time.perf_counter() - start:.1f} s)")
     options.write_json(args.json, options.json_payload(docs, len(theorems)))
-    return prove_exit(results, unsupported)
+    return prove_exit(results, unsupported, allow_vacuous=args.allow_vacuous)
 
 
 
-def prove_exit(results: list, unsupported: list = ()) -> int:
+def prove_exit(results: list, unsupported: list = (), allow_vacuous: bool = False) -> int:
     alarms = [r for r in results if r.extra.get("cross_check", {}).get("disagreements")]
     for r in alarms:
         print(f"certiloop: SOUNDNESS ALARM: cvc5 disagrees with z3 on {r.model}: "
@@ -93,8 +96,13 @@ def prove_exit(results: list, unsupported: list = ()) -> int:
     options.name_unsupported(unsupported)
     if any(r.ill_defined for r in results) or unsupported:
         return EXIT_BAD_INPUT
+    vacuous = [r for r in results if r.vacuous]
+    for r in vacuous:
+        what = "accepted (--allow-vacuous)" if allow_vacuous else "pass --allow-vacuous to accept it"
+        print(f"certiloop: {'warning' if allow_vacuous else 'error'}: {r.model} is vacuous: {r.vacuous}; "
+              f"the proof holds for any guarantee ({what})", file=sys.stderr)
     all_proved = all(r.verdict == "proved" and r.nonblocking_verdict in (None, "proved") for r in results)
-    return EXIT_OK if all_proved else EXIT_FAILED
+    return EXIT_OK if all_proved and (allow_vacuous or not vacuous) else EXIT_FAILED
 
 
 

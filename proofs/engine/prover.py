@@ -21,6 +21,7 @@ from certiloop.proofs.engine.budget import PLAN_SHARE, QUICK_SHARE, SCREEN_SHARE
 from certiloop.proofs.engine.discharge import discharge_one
 from certiloop.proofs.engine.eigen import ghost_options
 from certiloop.proofs.engine.odeplan import plan_odes
+from certiloop.proofs.engine.vacuous import vacuity
 from certiloop.proofs.engine.witnesses import WITNESS_RETRY_OBLIGATIONS, witness_options
 
 
@@ -41,6 +42,7 @@ class TheoremResult:
     nonblocking: list[ObligationResult] | None = None
     witness: str = ""  # the vacuity witness run: how it replayed, or why there is none
     witness_replayed: bool = False
+    vacuous: str = ""  # why the proof says nothing (vacuous.py), "" when it is not shown vacuous
 
     @property
     def nonblocking_verdict(self) -> str | None:
@@ -76,6 +78,7 @@ class TheoremResult:
             **({"nonblocking": {"verdict": self.nonblocking_verdict, "witness": self.witness,
                                 "obligations": [o.to_json() for o in self.nonblocking]}}
                if self.nonblocking is not None else {}),
+            **({"vacuous": self.vacuous} if self.vacuous else {}),
             **self.extra,
         }
 
@@ -168,6 +171,9 @@ class Prover:
             return self._witnessed(theorem, options, on_result, on_start, smtlib_dir)
         start = time.perf_counter()
         self._memo = {}
+        # whether a proof would be vacuous, on a worker beside the proof of a claim expected to hold
+        vacuous = self._submit(vacuity, theorem, self.budget) if theorem.expected == "proved" and \
+            self._executor() is not None else None
         too_many: TooManyObligations | None = None
         try:
             obligations = generate(theorem, limit=self.budget.max_obligations)
@@ -228,6 +234,8 @@ class Prover:
                                inconsistent=decision.inconsistent)
         if theorem.check_nonblocking and decision.verdict == "proved":
             self._vacuity(theorem, result)
+        if decision.verdict == "proved":
+            result.vacuous = (vacuous or self._submit(vacuity, theorem, self.budget)).result()
         result.seconds = time.perf_counter() - start
         return result
 

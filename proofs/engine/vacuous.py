@@ -1,0 +1,79 @@
+"""Is a proof vacuous? `A -> [a]P` holds for every P when no state meets A, or when no run of
+`a` gets through its first control step (a test that always fails). Such a proof says nothing,
+so `prove` reports it ("vacuous: ...", exit 1) unless the user allows it.
+
+Both checks are proofs, never guesses: the assumptions are unsatisfiable when z3 proves their
+negation valid; the first control step blocks every run when `A -> [prefix; body] false` has
+every obligation proved (prefix: what runs before the program's first loop, body: that loop's
+body; a loop-free program is checked whole). A flow there is read as its run of duration 0, the
+test of its domain: a flow has a run from a state exactly when its domain holds there, so this
+changes nothing about blocking and keeps the check to the control step's arithmetic. A check
+that is not proved leaves the proof standing: this can only add a warning, never take one away."""
+
+from __future__ import annotations
+
+from dataclasses import fields, replace
+
+from certiloop.models.lang.printing import show
+from certiloop.models.lang.programs import ODE, Loop, Program, Seq, Test, seq
+from certiloop.models.lang.terms import FALSE, ModelError, Not
+from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.core.solver import check_valid
+from certiloop.proofs.core.vcgen import TooManyObligations, generate
+from certiloop.proofs.engine.budget import Budget
+from certiloop.proofs.engine.discharge import discharge_one
+
+# a share of the proof's budget for each obligation of the checks: a check not proved with it
+# leaves the proof standing, and sbs.ctrl2's blocked-step claim, unknown either way, cost 2.5 s
+# at an eighth
+SHARE = 64
+MAX_OBLIGATIONS = 400
+
+
+def first_step(program: Program) -> Program | None:
+    """What runs up to the end of the first iteration of the program's first loop, or the whole
+    program when it has no loop at its top level; None when the program starts with nothing
+    but a loop whose first iteration is the same as the program (no prefix to add)."""
+    parts = program.parts if isinstance(program, Seq) else (program,)
+    for k, part in enumerate(parts):
+        if isinstance(part, Loop):
+            prefix = parts[:k]
+            return seq(*prefix, part.body) if prefix else part.body
+    return program
+
+
+def zero_duration(program: Program) -> Program:
+    """The program with every flow replaced by the test of its domain (its run of duration 0)."""
+    if isinstance(program, ODE):
+        return Test(program.domain)
+    changes = {}
+    for f in fields(program):
+        value = getattr(program, f.name)
+        if isinstance(value, Program):
+            changes[f.name] = zero_duration(value)
+        elif isinstance(value, tuple) and value and all(isinstance(v, Program) for v in value):
+            changes[f.name] = tuple(zero_duration(v) for v in value)
+    return replace(program, **changes) if changes else program
+
+
+def vacuity(theorem: Theorem, budget: Budget) -> str:
+    """Why a proof of `theorem` is vacuous, or "" when neither check proves it is (a function of
+    the theorem and the budget alone, so the prover may run it on a worker beside the proof)."""
+    budget = budget.share(SHARE)
+    answer = check_valid(Not(theorem.assumptions), budget.rlimit)
+    if answer.status == "unsat":
+        return f"the assumptions are unsatisfiable: no state meets {show(theorem.assumptions)}"
+    step = first_step(theorem.program)
+    if step is None:
+        return ""
+    blocked = replace(theorem, name=f"{theorem.name} (vacuity)", program=zero_duration(step), guarantee=FALSE,
+                      expected="proved", check_nonblocking=False)
+    try:
+        obligations = generate(blocked, limit=MAX_OBLIGATIONS)
+    except (TooManyObligations, ModelError):  # a step the rules cannot split: no verdict either way
+        return ""
+    # the guarantee's obligation (`false`) comes last and is the one a run refutes: try it first
+    if obligations and all(discharge_one(ob, budget).verdict == "proved" for ob in obligations[::-1]):
+        return ("no run gets through the first control step: every branch's tests fail for every "
+                "state the assumptions allow")
+    return ""
