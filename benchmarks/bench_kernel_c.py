@@ -152,7 +152,8 @@ def measure(m: int, rng, calls: int, batches: int, cc: str, work: Path, plain: s
     (folder / "plain.c").write_text(plain)
     sources = [str(KERNEL_C / "sbs_ctrl2.c"), str(FIXTURE_C / "sbs_ctrl2_fixture.c"), "driver.c", "plain.c"]
     flags = [f for f in CFLAGS if f != "-pedantic"]
-    subprocess.run([cc, *flags, "-I", str(KERNEL_C), "-I", str(FIXTURE_C), *sources, "-o", "bench", "-lm"], cwd=folder, check=True)
+    subprocess.run([cc, *flags, "-I", str(KERNEL_C), "-I", str(FIXTURE_C), *sources, "-o", "bench", "-lm"],
+                   cwd=folder, check=True)
     out = subprocess.run([str(folder / "bench"), str(calls), str(batches)], capture_output=True, text=True,
                          check=True).stdout.split()
     step_us, bare_us, plain_us = float(out[0]) / 1000, float(out[1]) / 1000, float(out[4]) / 1000

@@ -496,7 +496,7 @@ def test_cli_lang_c_needs_a_folder():
 
 # ------------------------------------------------------------------ the C fixture (monitor + fallback)
 
-KERNEL_C = __import__("pathlib").Path(__file__).resolve().parent.parent / "studies" / "sbs" / "generated" / "c"
+KERNEL_C = __import__("pathlib").Path(__file__).resolve().parents[1] / "studies" / "sbs" / "generated" / "c"
 FIXTURE_C = KERNEL_C.parent.parent / "native_c"
 
 
@@ -522,7 +522,8 @@ def c_fixture(folder):
 
     out = folder / "fixture" / "libfixture.so"
     out.parent.mkdir()
-    done = subprocess.run([cc(), *CFLAGS, "-I", str(KERNEL_C), "-fPIC", "-shared", str(KERNEL_C / "sbs_ctrl2.c"),
+    done = subprocess.run([cc(), *CFLAGS, "-I", str(KERNEL_C), "-fPIC", "-shared",
+                           str(KERNEL_C / "sbs_ctrl2.c"),
                            str(FIXTURE_C / "sbs_ctrl2_fixture.c"), "-o", str(out), "-lm"],
                           capture_output=True, text=True)
     assert done.returncode == 0 and not done.stderr, done.stderr

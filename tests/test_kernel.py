@@ -44,7 +44,8 @@ def test_shipped_kernel_is_a_fresh_extraction_of_the_model():
 
 
 def test_the_kernel_imports_no_prover_or_test_library():
-    code = ("import sys, certiloop.studies.sbs.fixture as k; k.VirtualFixture([], gain=1, buffer=1, period=1); "
+    code = ("import sys, certiloop.studies.sbs.fixture as k; "
+            "k.VirtualFixture([], gain=1, buffer=1, period=1); "
             "print(sorted(m for m in ('z3', 'sympy', 'hypothesis', 'scipy') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"

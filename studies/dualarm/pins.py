@@ -24,5 +24,5 @@ def check_extracted() -> None:
         if current != module.MODEL_HASH:
             raise RuntimeError(f"{path} was extracted from an older {module.MODEL} (hash "
                                f"{module.MODEL_HASH}, now {current}); run "
-                               f"`certiloop extract {module.MODEL} -o {path}`")
+                               "`python -m certiloop.studies regenerate`")
     _checked = True

@@ -155,10 +155,9 @@ def _check_guard_extracted() -> None:
 
     current = library.get(rcm_guard.MODEL).content_hash
     if current != rcm_guard.MODEL_HASH:
-        raise RuntimeError(f"studies/rcm/generated/axial_guard.py was extracted from an older {rcm_guard.MODEL} "
-                           "(hash "
-                           f"{rcm_guard.MODEL_HASH}, now {current}); run `certiloop extract "
-                           f"{rcm_guard.MODEL} -o studies/rcm/generated/axial_guard.py`")
+        raise RuntimeError(f"studies/rcm/generated/axial_guard.py was extracted from an older "
+                           f"{rcm_guard.MODEL} (hash {rcm_guard.MODEL_HASH}, now {current}); run "
+                           "`python -m certiloop.studies regenerate`")
     _guard_checked = True
 
 
