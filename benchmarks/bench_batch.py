@@ -186,7 +186,7 @@ def _ab(names: list[str]) -> list[dict]:
     hypothesis alone, the batch phase then hypothesis, and the gate's own task (which gives a
     model expected proved 100 hypothesis examples once its batch runs found nothing): what
     the batch phase adds to or saves from the gate. Seconds are CPU seconds of this process."""
-    from certiloop.cli.gate import GateOptions, falsify_task
+    from certiloop.api.gate_run import GateOptions, falsify_task
     from certiloop.falsify.search import Options, falsify
     from certiloop.models import library
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 
-from certiloop.cli.gate import GateEntry
+from certiloop.api.gate_run import GateEntry
 from certiloop.cli.report import hint, label
 
 

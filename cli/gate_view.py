@@ -8,8 +8,8 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
+from certiloop.api.gate_run import GateEntry
 from certiloop.cli import ui
-from certiloop.cli.gate import GateEntry
 from certiloop.cli.report import hint, label, verdict_text
 
 

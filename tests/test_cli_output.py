@@ -17,7 +17,7 @@ import xml.etree.ElementTree as ET
 import pytest
 from rich.console import Console
 
-from certiloop.cli import gate as gate_module
+from certiloop.api import gate_run as gate_module
 from certiloop.cli import main, ui
 from certiloop.cli.gate_view import show_gate
 from certiloop.models import library
@@ -143,7 +143,7 @@ def test_piped_output_has_no_ansi_codes_no_box_drawing_and_no_progress():
 
 
 def test_obligations_remember_the_incomplete_rule_they_depend_on(models_file):
-    from certiloop.cli.loading import load
+    from certiloop.api.loading import load
 
     rules = {name: [o.rule for o in generate(load(f"{models_file}:{name}"))]
              for name in ("square", "bad_inv", "step_down")}

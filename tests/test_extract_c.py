@@ -39,7 +39,7 @@ from hypothesis import strategies as st
 
 from certiloop.kernel.extract import ExtractError, extract
 from certiloop.kernel.extract.c.build import build, compiler, load
-from certiloop.kernel.extract.c.program import extract_c
+from certiloop.kernel.extract.c.emit import extract_c
 from certiloop.models import library
 
 pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler (cc, gcc or $CC) on this machine: "

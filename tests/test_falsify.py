@@ -244,7 +244,7 @@ def test_after_a_clean_batch_phase_hypothesis_runs_the_smaller_budget():
 
 
 def test_the_gate_keeps_the_full_budget_for_mutants(monkeypatch):
-    from certiloop.cli import gate
+    from certiloop.api import gate_run as gate
 
     seen = {}
     monkeypatch.setattr("certiloop.falsify.search.falsify", lambda th, o: seen.setdefault(th.name, o))

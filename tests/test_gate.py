@@ -5,9 +5,9 @@ import xml.etree.ElementTree as ET
 
 import pytest
 
-from certiloop.cli import gate as gate_module
+from certiloop.api import gate_run as gate_module
+from certiloop.api.loading import project_models
 from certiloop.cli import main
-from certiloop.cli.loading import project_models
 from certiloop.models import library
 from certiloop.proofs.core.vcgen import generate
 from certiloop.proofs.engine.cache import Cache

@@ -209,7 +209,7 @@ def test_a_float_only_run_does_not_fail_the_gate_of_a_proved_model():
     # the falsifier's float run takes the lifted root s with s*s = 1 - x^2 only within rounding
     # and reports it violated "in floating point only (not validated)": no evidence against an
     # exact proof. A validated run still fails the gate
-    from certiloop.cli.gate import GateEntry
+    from certiloop.api.gate_run import GateEntry
     from certiloop.falsify.depth import FLOAT_ONLY
 
     def entry_with(check):

@@ -136,7 +136,7 @@ def test_keywords_lark_may_read_as_names_make_the_scan_unsure(text):
 
 
 def test_a_name_not_in_the_archive_lists_the_names():
-    from certiloop.cli.loading import load_kyx
+    from certiloop.api.loading import load_kyx
     from certiloop.models.lang.terms import ModelError
 
     path = Path(__file__).parent / "fixtures" / "kyx_invalid.kyx"

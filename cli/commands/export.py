@@ -23,7 +23,7 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from certiloop.cli.loading import load_all
+    from certiloop.api.loading import load_all
     from certiloop.models.kyx import write_archive
 
     options.check_outputs(("-o", args.output, "file"))

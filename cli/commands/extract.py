@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from certiloop import api
 from certiloop.cli import options
 from certiloop.cli.errors import EXIT_FAILED, EXIT_OK, BadInput
 
@@ -45,11 +46,11 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput("--lang c writes two files (MODEL.c and MODEL.h); give the folder with -o DIR")
     options.check_outputs(("--output", args.output, "folder" if args.lang == "c" else "file"),
                    ("--cache", args.cache, "folder"))
+    from certiloop.api.loading import load
     from certiloop.cli import ui
-    from certiloop.cli.loading import load
     from certiloop.cli.report import show_result
     from certiloop.kernel.extract import extract
-    from certiloop.kernel.extract.c.program import extract_c
+    from certiloop.kernel.extract.c.emit import extract_c
     from certiloop.proofs.engine.cache import Cache
     from certiloop.proofs.engine.prover import Prover
 
@@ -64,7 +65,7 @@ def run(args: argparse.Namespace) -> int:
             ui.say(err, f"{theorem.name}: proved (from the proof cache)")
     else:
         with Prover(jobs=args.jobs, budget=options.budget(args)) as prover:
-            result = prover.prove(theorem)
+            result = api.prove(theorem, prover=prover)
         if level == ui.VERBOSE:
             show_result(err, result, level)
         verdict, reason = result.verdict, result.reason

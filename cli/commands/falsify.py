@@ -6,6 +6,7 @@ import argparse
 import time
 from pathlib import Path
 
+from certiloop import api
 from certiloop.cli import options
 from certiloop.cli.errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, BadInput
 
@@ -84,19 +85,18 @@ def run(args: argparse.Namespace) -> int:
             raise BadInput(str(exc)) from None
         options.write_json(args.json, options.json_payload(docs, len(docs)))
         return code
-    from certiloop.cli.loading import Unsupported, load_all
+    from certiloop.api.loading import Unsupported, load_all
 
     theorems = load_all(args.models, keep_unsupported=True)
 
     from certiloop.cli import ui
     from certiloop.cli.report import show_unsupported
     from certiloop.falsify.report import show_falsification
-    from certiloop.falsify.search import Options, falsify
     from certiloop.models.lang.terms import ModelError
 
     database = None if args.database.lower() == "none" else Path(args.database)
-    opts = Options(max_examples=args.max_examples, seed=args.seed, families=(1, args.max_family),
-                   max_steps=args.steps, database=database)
+    search = {"max_examples": args.max_examples, "seed": args.seed, "families": (1, args.max_family),
+              "max_steps": args.steps, "database": database}
     out, level = options.console(stderr=args.json == "-"), ui.verbosity(args)
     start, results, docs, unsupported = time.perf_counter(), [], [], []
     try:
@@ -107,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
                     with options.naming(theorem.name):
                         if isinstance(theorem, Unsupported):
                             raise ModelError(theorem.reason)
-                        result = falsify(theorem, opts)
+                        result = api.falsify(theorem, **search)
                 except ModelError as exc:  # one of several models: its row, and the others run
                     if len(theorems) == 1:
                         raise

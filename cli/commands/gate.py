@@ -46,10 +46,10 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput(f"--falsify-examples must be at least 1, got {args.falsify_examples}")
     options.check_outputs(("--json", args.json, "file"), ("--junit", args.junit, "file"),
                    ("--markdown", args.markdown, "file"), ("--cache", args.cache, "folder"))
+    from certiloop.api.gate_run import GateOptions, run_gate
+    from certiloop.api.loading import load_all, project_models
     from certiloop.cli import ui
-    from certiloop.cli.gate import GateOptions, run_gate
     from certiloop.cli.gate_view import show_gate
-    from certiloop.cli.loading import load_all, project_models
     from certiloop.proofs.engine.cache import Cache
 
     theorems = load_all(args.models or project_models(), keep_unsupported=True)

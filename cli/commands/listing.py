@@ -25,8 +25,8 @@ def run(args: argparse.Namespace) -> int:
 def list_models(as_json: bool = False, models: list[str] | None = None) -> int:
     from rich.markup import escape
 
+    from certiloop.api.loading import Unsupported, load_all
     from certiloop.cli import ui
-    from certiloop.cli.loading import Unsupported, load_all
     from certiloop.models import library
 
     found = load_all(models, keep_unsupported=True) if models else [library.get(n) for n in library.names()]

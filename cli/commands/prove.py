@@ -7,6 +7,7 @@ import sys
 import time
 from pathlib import Path
 
+from certiloop import api
 from certiloop.cli import options
 from certiloop.cli.errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INCONSISTENT, EXIT_OK
 
@@ -36,7 +37,7 @@ def add_parser(sub) -> None:
 def run(args: argparse.Namespace) -> int:
     options.check_common(args)
     options.check_outputs(("--json", args.json, "file or -"), ("--smtlib", args.smtlib, "folder"))
-    from certiloop.cli.loading import Unsupported, load_all
+    from certiloop.api.loading import Unsupported, load_all
 
     theorems = load_all(args.models, keep_unsupported=True)  # all bad names fail before any work
 
@@ -57,8 +58,8 @@ def run(args: argparse.Namespace) -> int:
                     with options.naming(theorem.name):
                         if isinstance(theorem, Unsupported):
                             raise ModelError(theorem.reason)
-                        result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
-                                              smtlib_dir=smt_dir)
+                        result = api.prove(theorem, prover=prover, on_start=progress.steps,
+                                           on_result=progress.step, smtlib_dir=smt_dir)
                 except ModelError as exc:  # one of several models: its row, and the others run
                     if len(theorems) == 1:
                         raise

@@ -17,7 +17,7 @@ from concurrent.futures import Future
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable
 
-from certiloop.cli.loading import Unsupported
+from certiloop.api.loading import Unsupported
 from certiloop.falsify.depth import FLOAT_ONLY
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
