@@ -4,7 +4,17 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-PACKAGES = ("models", "proofs", "falsify", "kernel", "testing")
+PACKAGES = ("models", "proofs", "falsify", "kernel", "testing", "cli", "api", "studies")
+GENERIC = ("certiloop.models", "certiloop.proofs", "certiloop.falsify", "certiloop.kernel",
+           "certiloop.testing", "certiloop.cli", "certiloop.api")
+# what runs in a control loop: the runtime support and the case studies' kernels
+RUNTIME = ("certiloop.kernel.filtered", "certiloop.studies.sbs.fixture", "certiloop.studies.sbs.monitor",
+           "certiloop.studies.sbs.native", "certiloop.studies.sbs.generated", "certiloop.studies.rcm.kernel",
+           "certiloop.studies.rcm.arm", "certiloop.studies.rcm.cloud", "certiloop.studies.rcm.dynamics",
+           "certiloop.studies.rcm.generated", "certiloop.studies.raven.arm",
+           "certiloop.studies.raven.deviation",
+           "certiloop.studies.dualarm.arms", "certiloop.studies.dualarm.generated")
+PROVER = ("certiloop.proofs", "certiloop.falsify", "certiloop.cli", "certiloop.api")
 
 
 def _modules() -> dict[str, Path]:
@@ -100,3 +110,35 @@ def test_nothing_in_the_core_can_be_reached_around():
         tree = ast.parse(path.read_text())
         defined = {n.name for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.ClassDef))}
         assert not defined & {"judge", "decide_theorem", "ObligationResult"}, name
+
+
+def test_no_generic_package_imports_a_case_study():
+    """The language, prover, falsifier, extraction, CLI and API know no case study by name:
+    studies register themselves (models/library/registry.py)."""
+    for module, targets in GRAPH.items():
+        if module.startswith(GENERIC):
+            bad = [t for t in targets if t.startswith("certiloop.studies")]
+            assert not bad, (module, bad)
+
+
+def test_the_runtime_kernels_import_no_prover():
+    runtime = [m for m in GRAPH if m.startswith(RUNTIME)]
+    assert len(runtime) >= len(RUNTIME)  # every name above exists
+    for module in runtime:
+        bad = [t for t in GRAPH[module] if t.startswith(PROVER)]
+        assert not bad, (module, bad)
+
+
+def test_the_api_imports_no_cli():
+    for module, targets in _importers("certiloop.api").items():
+        assert not [t for t in targets if t.startswith("certiloop.cli")], module
+
+
+def test_each_study_is_registered_and_has_a_readme():
+    from certiloop.models.library.registry import studies
+
+    registered = {s.name for s in studies()}
+    folders = {p.name for p in (ROOT / "studies").iterdir() if (p / "__init__.py").exists()}
+    assert registered == folders
+    for name in folders:
+        assert (ROOT / "studies" / name / "README.md").exists(), name

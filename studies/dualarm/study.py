@@ -6,7 +6,8 @@ HERE = "certiloop.studies.dualarm"
 
 STUDY = Study(
     name="dualarm",
-    title="A verified collision-free motion planner for two SCARA arms (HOL4)",
+    title=("Formal Verification of a Collision-free Algorithm of Dual-arm Robot in HOL4 (Li, Shi, "
+           "Guan, Zhao, Zhang, Wei)"),
     order=20,
     package=HERE,
     models={

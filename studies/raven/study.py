@@ -6,7 +6,8 @@ HERE = "certiloop.studies.raven"
 
 STUDY = Study(
     name="raven",
-    title="Raven-II: a dynamic-model deviation monitor under fault injection, and certified FMT* planning",
+    title=("Surgeon Training in Telerobotic Surgery via a Hardware-in-the-Loop Simulator (Li, "
+           "Alemzadeh, Chen, Kalbarczyk, Iyer, Kesavadas, J. Healthcare Eng. 2017)"),
     order=50,
     package=HERE,
     models={

@@ -6,7 +6,8 @@ HERE = "certiloop.studies.sbs"
 
 STUDY = Study(
     name="sbs",
-    title="Virtual fixtures for skull-base surgery (Kouskoulas et al., HSCC 2013)",
+    title=("Certifying the Safe Design of a Virtual Fixture Control Algorithm for a Surgical Robot "
+           "(Kouskoulas, Renshaw, Platzer, Kazanzides, HSCC 2013)"),
     order=10,
     package=HERE,
     models={
