@@ -23,15 +23,6 @@ import math
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
-from test_extract import (
-    Known,
-    _ctrl2_state,
-    _predictive_state,
-    _scene,
-    call,
-    step_theorem,
-)
-from test_extract_coverage import stop_3d_scene
 
 from certiloop.falsify.evaluate import Blocked, Compiler, Table
 from certiloop.falsify.interpreter import Interpreter
@@ -40,6 +31,15 @@ from certiloop.kernel.extract.modelplex import monitors
 from certiloop.models import library
 from certiloop.models.lang.programs import ODE
 from certiloop.models.lang.terms import ModelError
+from kernel.test_extract import (
+    Known,
+    _ctrl2_state,
+    _predictive_state,
+    _scene,
+    call,
+    step_theorem,
+)
+from kernel.test_extract_coverage import stop_3d_scene
 
 CLOSE, FAR, TOL = 1e-9, 1e-5, 1e-7
 SQRT_PINS = {"sbs.predictive", "raven.haptic_force"}  # roots of x*x = q: the oracle runs in floats
@@ -467,7 +467,7 @@ def test_models_without_monitors_are_refused_with_the_reason():
 
 
 def test_every_extracted_model_has_monitors():
-    from test_extract_coverage import EXTRACTS
+    from kernel.test_extract_coverage import EXTRACTS
 
     for name in (n for n in EXTRACTS if n not in NO_MONITOR):
         try:
@@ -482,7 +482,7 @@ def test_monitor_modules_import_only_numpy(tmp_path):
     import subprocess
     import sys
 
-    from test_extract_coverage import EXTRACTS
+    from kernel.test_extract_coverage import EXTRACTS
 
     EXTRACTS = [n for n in EXTRACTS if n not in NO_MONITOR]
     for name in EXTRACTS:

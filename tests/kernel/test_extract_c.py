@@ -385,12 +385,10 @@ def test_the_issues_plane_is_decided_as_in_python(folder):
 
 # ------------------------------------------------------------------ against the interpreter
 
-sys.path.insert(0, str(__import__("pathlib").Path(__file__).parent))
-from test_extract import _ctrl2_state, run_step, step_theorem  # noqa: E402
-
 from certiloop.falsify.choosers import FirstEnabled  # noqa: E402
 from certiloop.falsify.evaluate import Blocked, Table  # noqa: E402
 from certiloop.falsify.interpreter import Interpreter  # noqa: E402
+from kernel.test_extract import _ctrl2_state, run_step, step_theorem  # noqa: E402
 
 
 def _rational(v):
@@ -496,7 +494,7 @@ def test_cli_lang_c_needs_a_folder():
 
 # ------------------------------------------------------------------ the C fixture (monitor + fallback)
 
-KERNEL_C = __import__("pathlib").Path(__file__).resolve().parents[1] / "studies" / "sbs" / "generated" / "c"
+KERNEL_C = __import__("pathlib").Path(__file__).resolve().parents[2] / "studies" / "sbs" / "generated" / "c"
 FIXTURE_C = KERNEL_C.parent.parent / "native_c"
 
 

@@ -21,7 +21,7 @@ from certiloop.proofs.engine.discharge import discharge_one
 from certiloop.proofs.engine.polysize import nonlinear_size
 from certiloop.proofs.engine.prover import Prover
 
-FIXTURE = Path(__file__).parent / "fixtures" / "kyx_nonlinear_size.kyx"
+FIXTURE = Path(__file__).resolve().parents[2] / "fixtures" / "kyx_nonlinear_size.kyx"
 x, y, z = Real("x"), Real("y"), Real("z")
 
 

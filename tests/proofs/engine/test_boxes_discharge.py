@@ -18,7 +18,7 @@ from certiloop.proofs.engine import discharge as discharge_module
 from certiloop.proofs.engine.discharge import discharge_one
 from certiloop.proofs.engine.prover import Prover
 
-FIXTURE = Path(__file__).parent / "fixtures" / "kyx_boxes.kyx"
+FIXTURE = Path(__file__).resolve().parents[2] / "fixtures" / "kyx_boxes.kyx"
 
 
 def entries() -> dict:

@@ -132,6 +132,6 @@ def test_importing_the_plugin_loads_no_prover():
 
 
 def test_the_plugin_is_a_pytest11_entry_point():
-    project = tomllib.loads((Path(__file__).resolve().parent.parent / "pyproject.toml").read_text())
+    project = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
     assert project["project"]["entry-points"]["pytest11"] == {"certiloop": "certiloop.testing.plugin"}
     assert "certiloop.testing" in project["tool"]["setuptools"]["packages"]

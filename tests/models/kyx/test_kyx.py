@@ -23,7 +23,7 @@ from certiloop.models.lang.terms import And, Box, ForAll, Iff, Implies, Not, Or,
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.engine import Prover
 
-FIXTURES = Path(__file__).parent / "fixtures"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 VALID, INVALID = FIXTURES / "kyx_valid.kyx", FIXTURES / "kyx_invalid.kyx"
 
 

@@ -12,11 +12,11 @@ import math
 
 import numpy as np
 import pytest
-from test_extract import PROVED as CHECKED_IN_TEST_EXTRACT
-from test_extract import Known, agree, call, check_scalar, run_step, step_theorem
 
 from certiloop.kernel.extract import ExtractError, extract
 from certiloop.models import library
+from kernel.test_extract import PROVED as CHECKED_IN_TEST_EXTRACT
+from kernel.test_extract import Known, agree, call, check_scalar, run_step, step_theorem
 
 # model -> why it is not extracted (a substring of the one-line refusal)
 REFUSED = {

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("shapely")
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[3] / "benchmarks"))
 
 from bench_cfmpa import _soundness_verdict, mutant_soundness  # noqa: E402
 from cfmpa_mutants import early_arrival_plans, mutant_databases, random_scene  # noqa: E402

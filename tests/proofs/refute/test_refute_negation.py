@@ -22,7 +22,7 @@ from certiloop.proofs.core.verdicts import ObligationResult
 from certiloop.proofs.engine.prover import Prover
 from certiloop.proofs.refute import negation
 
-FIXTURES = Path(__file__).parent / "fixtures"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 FALSE, VALID = FIXTURES / "kyx_negation_false.kyx", FIXTURES / "kyx_negation_valid.kyx"
 
 

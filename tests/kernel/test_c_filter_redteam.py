@@ -35,7 +35,7 @@ from certiloop.kernel.extract.c.build import compiler
 
 pytestmark = pytest.mark.skipif(compiler() is None, reason="no C compiler (cc/gcc/clang) on PATH")
 
-from test_extract_c import TIGHT, exact_enabled, kernel, python  # noqa: E402
+from kernel.test_extract_c import TIGHT, exact_enabled, kernel, python  # noqa: E402
 
 TIES = ("d0=D", "d0=0", "fn=0", "fnp=0", "turn", "disc=0", "dist=0", "edge")
 

@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from certiloop.models.kyx import KyxError, read_entries, reader
 from certiloop.models.kyx.slicing import one_entry
 
-FIXTURES = Path(__file__).parent / "fixtures"
+FIXTURES = Path(__file__).resolve().parents[2] / "fixtures"
 
 
 def _read(text: str, name: str, whole: bool) -> tuple:
@@ -139,7 +139,7 @@ def test_a_name_not_in_the_archive_lists_the_names():
     from certiloop.api.loading import load_kyx
     from certiloop.models.lang.terms import ModelError
 
-    path = Path(__file__).parent / "fixtures" / "kyx_invalid.kyx"
+    path = Path(__file__).resolve().parents[2] / "fixtures" / "kyx_invalid.kyx"
     with pytest.raises(ModelError, match="no entry named 'nope' \\(it has: "):
         load_kyx(str(path), "nope")
 

@@ -19,10 +19,10 @@ from __future__ import annotations
 import math
 
 import pytest
-from test_ode_rules import holds_along  # noqa: E402  (the author's scipy witness)
 
 from certiloop.models import And, Or, Reals, Theorem, loop, ode
 from certiloop.proofs.engine import Prover
+from proofs.core.test_ode_rules import holds_along  # noqa: E402  (the author's scipy witness)
 
 x, y, z, a, b = Reals("x y z a b")
 
