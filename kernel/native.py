@@ -21,8 +21,8 @@ import subprocess
 import tempfile
 from pathlib import Path
 
-SOURCES = ("sbs_ctrl2.c", "sbs_ctrl2_fixture.c")
-HEADERS = ("sbs_ctrl2.h", "sbs_ctrl2_fixture.h")
+SOURCES = ("sbs_ctrl2.c", "sbs_ctrl2_fixture.c", "sbs_ctrl2_fixture_calls.c")
+HEADERS = ("sbs_ctrl2.h", "sbs_ctrl2_fixture.h", "sbs_ctrl2_fixture_calls.h")
 KERNEL_C = Path(__file__).resolve().parent / "c"
 # the project's C flags (kernel.extract.c_syntax.CFLAGS; a test keeps the two equal)
 FLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-ffp-contract=off"]
@@ -37,16 +37,36 @@ int sbs_ctrl2_fixture_step(const double p[3], const double f[3], const double fp
                            double G, double D, double e, double dt, double position_tolerance,
                            sbs_ctrl2_memory *memory, double *k);
 """
+# the declarations of sbs_ctrl2_fixture_calls.h (a test checks them against it): one context
+# filled once, inputs by value, and a loop over many periods -- a call with few arguments
+CDEF_CALLS = """
+typedef struct {
+    const double *rx, *ry, *rz, *nx, *ny, *nz;
+    size_t n;
+    double G, D, e, position_tolerance;
+    sbs_ctrl2_memory memory;
+    sbs_ctrl2_memory before;
+    double k;
+} sbs_ctrl2_fixture_context;
+int sbs_ctrl2_fixture_step_values(sbs_ctrl2_fixture_context *c, double px, double py, double pz, double fx,
+                                  double fy, double fz, double fpx, double fpy, double fpz, double dt);
+size_t sbs_ctrl2_fixture_step_many(sbs_ctrl2_fixture_context *c, const double *inputs, size_t rows,
+                                   const double *dt, size_t dt_stride, double *k, int *reason);
+"""
 
 
 class Native:
-    """The loaded library: `step` is sbs_ctrl2_fixture_step; `doubles(address)` a C pointer to
-    float64 data at an address (a numpy array's .ctypes.data; the caller keeps the array alive),
-    `memory()` a fresh sbs_ctrl2_memory, `out()` a double to write into."""
+    """The loaded library: `step` is sbs_ctrl2_fixture_step, `step_values` and `step_many` those
+    of sbs_ctrl2_fixture_calls.h; `doubles(address)` a C pointer to float64 data at an address (a
+    numpy array's .ctypes.data; the caller keeps the array alive), `memory()` a fresh
+    sbs_ctrl2_memory, `context()` a fresh sbs_ctrl2_fixture_context, `out()` a double to write
+    into, `buffer(kind, array)` a C pointer into a numpy array's data (kept alive with it)."""
 
     def __init__(self, ffi, lib) -> None:
         self.ffi, self.lib = ffi, lib
         self.step = lib.sbs_ctrl2_fixture_step
+        self.step_values = lib.sbs_ctrl2_fixture_step_values
+        self.step_many = lib.sbs_ctrl2_fixture_step_many
 
     def doubles(self, address: int):
         return self.ffi.cast("double *", address)
@@ -56,6 +76,12 @@ class Native:
 
     def out(self):
         return self.ffi.new("double *")
+
+    def context(self):
+        return self.ffi.new("sbs_ctrl2_fixture_context *")
+
+    def buffer(self, kind: str, array):
+        return self.ffi.from_buffer(kind, array)
 
 
 _state: dict = {}
@@ -104,6 +130,7 @@ def _load():
             return None, why
     ffi = cffi.FFI()
     ffi.cdef(CDEF)
+    ffi.cdef(CDEF_CALLS)
     try:
         lib = ffi.dlopen(str(library))
     except OSError as exc:
