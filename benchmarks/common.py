@@ -28,6 +28,15 @@ def summary(times: list[float]) -> dict[str, float]:
             "runs": len(times)}
 
 
+def latency(samples, unit: float = 1.0, suffix: str = "ms") -> dict[str, float]:
+    """Median, p99 and max of per-call times (each times `unit`): a control loop lives by its
+    worst tick, so every kernel's record gives all three."""
+    ordered = sorted(samples)
+    n = len(ordered)
+    return {f"median_{suffix}": statistics.median(ordered) * unit,
+            f"p99_{suffix}": ordered[min(n - 1, int(0.99 * n))] * unit, f"max_{suffix}": ordered[-1] * unit}
+
+
 def record(name: str, rows: list[dict]) -> None:
     """Print rows as a table and write them, with machine facts, to results/NAME.json."""
     keys = list(rows[0])

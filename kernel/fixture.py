@@ -52,7 +52,12 @@ class Command:
     def velocity(self) -> np.ndarray:
         v = self._velocity
         if type(v) is tuple:  # G k and f, multiplied as the numpy path does: (G * k) * f
-            v = self._velocity = v[0] * np.asarray(v[1], dtype=float)
+            gk, f = v
+            try:
+                v = np.array((gk * f[0], gk * f[1], gk * f[2]), dtype=float)
+            except TypeError:  # a number type float does not multiply (it converts, as numpy does)
+                v = gk * np.asarray(f, dtype=float)
+            self._velocity = v
         return v
 
     @property
