@@ -5,12 +5,14 @@ interleaved in blocks of ticks so that a busy moment of the machine hits both.
 
     python benchmarks/bench_rcm_tail.py [--old ae9f168] [--ticks 10000] [--points 10000]
 
-Two garbage-collector regimes, each a row per side:
-* "gc on": Python's default, as any caller gets it;
-* "gc frozen": what a control loop does before it starts: collect once, gc.freeze() the set-up's
-  objects (they are never scanned again) and disable the cycle collector for the loop (the
-  step's arrays are freed by reference counting the moment they die; the step makes no
-  cycles, checked below by gc.collect() finding nothing after the loop).
+Three garbage-collector regimes, each a row per side:
+* "on": Python's default, as any caller gets it;
+* "frozen": what a control loop does before it starts: gc.collect() then gc.freeze(), so the
+  set-up's objects (numpy, scipy, the cloud's tree) are never scanned again; the collector stays
+  on and only ever scans the few objects of the last ticks;
+* "frozen+off": as "frozen" and gc.disable() for the loop (the step's arrays are freed by
+  reference counting the moment they die; the step makes no cycles: gc.collect() after the
+  loop finds nothing, or the run says so).
 `kib_per_tick` is the peak traced memory of one step above what it keeps (tracemalloc, a
 separate pass): what the step allocates and frees again. Writes results/rcm_tail.json.
 """
@@ -55,13 +57,15 @@ def controllers(Old, points: int) -> dict:
     return {"old": old, "new": new}
 
 
-def run(Old, points: int, ticks: int, frozen: bool) -> dict[str, list[int]]:
+def run(Old, points: int, ticks: int, regime: str) -> dict[str, list[int]]:
     sides = controllers(Old, points)
     wrenches = [guidance(i * 0.004) for i in range(ticks)]
     times: dict[str, list[int]] = {side: [] for side in sides}
+    frozen = regime != "on"
     if frozen:
         gc.collect()
         gc.freeze()
+    if regime == "frozen+off":
         gc.disable()
     try:
         for start in range(0, ticks, BLOCK):
@@ -75,7 +79,7 @@ def run(Old, points: int, ticks: int, frozen: bool) -> dict[str, list[int]]:
         if frozen:
             gc.enable()
             gc.unfreeze()
-    if frozen and gc.collect() != 0:
+    if regime == "frozen+off" and gc.collect() != 0:
         print("note: the loop left cycles for the collector", file=sys.stderr)
     return times
 
@@ -107,13 +111,13 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         Old = old_controller_class(args.old, Path(tmp))
         kib = {side: allocated_kib(c) for side, c in controllers(Old, args.points).items()}
-        for frozen in (False, True):
-            times = run(Old, args.points, args.ticks, frozen)
+        for regime in ("on", "frozen", "frozen+off"):
+            times = run(Old, args.points, args.ticks, regime)
             for side in ("old", "new"):
                 stats = latency(times[side], unit=1e-6)
                 rows.append({"case": f"step tip {args.points} pts", "side": side,
                              "commit": args.old if side == "old" else "this",
-                             "gc": "frozen" if frozen else "on",
+                             "gc": regime,
                              "ticks": args.ticks, **{k: round(v, 3) for k, v in stats.items()},
                              "over_1ms": sum(t > 1e6 for t in times[side]),
                              "over_2ms": sum(t > 2e6 for t in times[side]),
