@@ -25,7 +25,7 @@ periods in one C loop.
 
 from __future__ import annotations
 
-from typing import Iterable, Sequence
+from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -36,23 +36,24 @@ ROUNDING = 1e-12  # a negative k above -ROUNDING: a tool past a plane by roundin
 
 class Command:
     """k, the velocity G k f, ok (False: the fallback was commanded), the reason of a
-    fallback, and the distances d0 to the planes. The compiled step leaves the velocity and the
-    distances as their factors (built when first read: a control loop that reads k only pays
-    for no array)."""
+    fallback, and the distances d0 to the planes. The compiled step gives their factors
+    instead (G k, f, p and the planes), and they are built when first read: a control loop
+    that reads k only pays for no array."""
 
-    __slots__ = ("k", "_velocity", "ok", "reason", "_distances")
+    __slots__ = ("k", "_velocity", "ok", "reason", "_distances", "_factors")
 
-    def __init__(self, k: float, velocity, ok: bool = True, reason: str = "", distances=None) -> None:
-        """velocity: an array, or (G k, f) with f three numbers; distances: an array, a function
-        returning it, or (p, points, normals)."""
+    def __init__(self, k: float, velocity: np.ndarray | None, ok: bool = True, reason: str = "",
+                 distances: np.ndarray | Callable[[], np.ndarray] | None = None,
+                 factors: tuple | None = None) -> None:
+        """factors: (G k, f, p, points, normals), for a velocity or distances given as None."""
         self.k, self._velocity, self.ok, self.reason = k, velocity, ok, reason
-        self._distances = _NO_PLANES if distances is None else distances
+        self._distances, self._factors = distances, factors
 
     @property
     def velocity(self) -> np.ndarray:
         v = self._velocity
-        if type(v) is tuple:  # G k and f, multiplied as the numpy path does: (G * k) * f
-            gk, f = v
+        if v is None:  # multiplied as the numpy path does: (G * k) * f
+            gk, f = self._factors[0], self._factors[1]
             try:
                 v = np.array((gk * f[0], gk * f[1], gk * f[2]), dtype=float)
             except TypeError:  # a number type float does not multiply (it converts, as numpy does)
@@ -63,8 +64,10 @@ class Command:
     @property
     def distances(self) -> np.ndarray:
         d = self._distances
-        if type(d) is tuple:
-            p, r, n = d
+        if d is None:
+            if self._factors is None:
+                return _NO_PLANES
+            p, r, n = self._factors[2:]
             d = self._distances = np.einsum("ij,ij->i", np.asarray(p, dtype=float) - r, n)
         elif callable(d):
             d = self._distances = d()
@@ -240,8 +243,8 @@ class VirtualFixture:
             if reason == 0:  # native.OK
                 self._memory_in_c = True
                 k = self._context.k
-                return Command(k, (self._gain * k, (fx, fy, fz)), True, "",
-                               ((px, py, pz), self._points, self._normals))
+                return Command(k, None, True, "", None,
+                               (self._gain * k, (fx, fy, fz), (px, py, pz), self._points, self._normals))
             if reason is not None:
                 self._take_memory_before()
         self._memory_stale = True  # whatever the numpy path keeps, C must start from it

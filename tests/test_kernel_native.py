@@ -262,3 +262,42 @@ def test_a_parameter_changed_between_steps_reaches_the_compiled_step():
     # old gain and period the full gain would pass)
     for command in (got, want):
         assert command.ok and 0.5 * (1 - 2.0 ** -19) <= command.k <= 0.5
+
+
+@needs_c
+def test_the_extension_module_and_the_shared_library_step_alike(tmp_path, monkeypatch):
+    """The two ways of loading the C (a compiled cffi module, the shared library through libffi)
+    give the same reason, gain and memory on random inputs; a module that cannot be built leaves
+    the library in charge, and the failure is not retried."""
+    import cffi
+
+    monkeypatch.setenv("CERTILOOP_CACHE", str(tmp_path))
+    monkeypatch.setattr(native, "_state", {})
+    assert native.load(ctrl2.MODEL_HASH) is not None
+    folder = next((tmp_path / "native").iterdir())
+    module = native._extension(cffi, {}, folder)
+    if module is None:
+        pytest.skip("no extension module here (no Python headers or setuptools)")
+    ffi = cffi.FFI()
+    ffi.cdef(native.CDEF)
+    ffi.cdef(native.CDEF_CALLS)
+    loaded = [native.Native(module.ffi, module.lib), native.Native(ffi, ffi.dlopen(str(folder /
+                                                                                      "libsbs_ctrl2_fixture.so")))]
+    rng = np.random.default_rng(2)
+    for _ in range(100):
+        planes, G, D, e, rows = _random_run(rng, 4)
+        arrays = [np.array([pl[a] for pl in planes]) for a in (0, 1)]
+        cols = [np.ascontiguousarray(x[:, j]) for x in arrays for j in range(3)]
+        results = []
+        for n in loaded:
+            c = n.context()
+            c.rx, c.ry, c.rz, c.nx, c.ny, c.nz = (n.doubles(col.ctypes.data) for col in cols)
+            c.n, c.G, c.D, c.e, c.position_tolerance = len(planes), G, D, e, 1e-6
+            results.append([(n.step_values(c, *row, e), c.k, c.memory.has_previous, list(c.memory.p))
+                            for row in rows])
+        assert repr(results[0]) == repr(results[1])  # (NaN positions included)
+    (folder / "unbuildable").mkdir()
+    monkeypatch.setattr(native, "_build_extension", lambda *a: (_ for _ in ()).throw(OSError("no headers")))
+    assert native._extension(cffi, {}, folder / "unbuildable") is None
+    monkeypatch.setattr(native, "_build_extension", lambda *a: pytest.fail("retried"))
+    assert native._extension(cffi, {}, folder / "unbuildable") is None
