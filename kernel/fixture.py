@@ -230,16 +230,21 @@ class VirtualFixture:
         """Gain and commanded velocity for tool position p, surgeon force f and its rate fp.
         dt: time since the previous step (default: the period ε) for the motion check."""
         if self._native is not None:
-            try:  # three numbers each (arrays, lists, tuples), passed to C by value
-                px, py, pz = p
-                fx, fy, fz = f
-                fpx, fpy, fpz = fp
-                if self._memory_stale:
-                    self._sync_memory()
+            if self._memory_stale:
+                self._sync_memory()
+            try:  # three numbers each, passed to C by value (an array's as a list: no numpy scalars)
+                px, py, pz = p.tolist() if type(p) is _ARRAY else p
+                fx, fy, fz = f.tolist() if type(f) is _ARRAY else f
+                fpx, fpy, fpz = fp.tolist() if type(fp) is _ARRAY else fp
                 reason = self._call(self._context, px, py, pz, fx, fy, fz, fpx, fpy, fpz,
                                     self._period if dt is None else dt)
-            except Exception:  # noqa: BLE001 (not three numbers each: the numpy path converts or refuses)
+            except Exception:  # noqa: BLE001 (anything else: converted as numpy converts it, or refused)
+                values = _three_each(p, f, fp)
                 reason = None
+                if values is not None:
+                    (px, py, pz), (fx, fy, fz), (fpx, fpy, fpz) = values
+                    reason = self._call(self._context, px, py, pz, fx, fy, fz, fpx, fpy, fpz,
+                                        self._period if dt is None else dt)
             if reason == 0:  # native.OK
                 self._memory_in_c = True
                 k = self._context.k
@@ -336,6 +341,20 @@ class VirtualFixture:
         else:
             self._previous = None
         return Command(0.0, np.zeros(3), False, reason)
+
+
+_ARRAY = np.ndarray
+
+
+def _three_each(p, f, fp) -> list[list[float]] | None:
+    """p, f, fp as numpy reads them (any shape of three numbers), or None where they are not."""
+    try:
+        arrays = [np.asarray(x, dtype=float).reshape(-1) for x in (p, f, fp)]
+    except (TypeError, ValueError):
+        return None
+    if any(a.shape != (3,) for a in arrays):
+        return None
+    return [a.tolist() for a in arrays]
 
 
 def _memory_tuple(m) -> tuple:

@@ -301,3 +301,24 @@ def test_the_extension_module_and_the_shared_library_step_alike(tmp_path, monkey
     assert native._extension(cffi, {}, folder / "unbuildable") is None
     monkeypatch.setattr(native, "_build_extension", lambda *a: pytest.fail("retried"))
     assert native._extension(cffi, {}, folder / "unbuildable") is None
+
+
+@needs_c
+def test_inputs_of_any_form_numpy_reads_are_stepped_alike():
+    """Arrays of shape (3, 1), int arrays, strings of numbers, lists: the compiled step commands
+    what it commands for the plain float arrays; what numpy cannot read is refused as before."""
+    planes = [((0, 0, -1), (0, 0, 1)), ((0, -2, 0), (0, 1, 0))]
+    p, f, fp = np.array([0.0, 0.0, 0.0]), np.array([1.0, -2.0, 3.0]), np.array([0.0, 0.5, 0.0])
+    forms = [(p, f, fp), (p[:, None], f[:, None], fp[None, :]), (p.astype(int), f.astype(int), [0, 0.5, 0]),
+             (["0", "0", "0"], ("1", "-2", "3"), ["0", "0.5", "0"]), (p.tolist(), f.tolist(), tuple(fp))]
+    commands = []
+    for form in forms:
+        fixture = VirtualFixture(planes, gain=1.0, buffer=0.5, period=0.1, backend="c")
+        commands.append(fixture.step(*form))
+    assert all(c.ok for c in commands)
+    assert len({c.k for c in commands}) == 1 and all(np.array_equal(c.velocity, commands[0].velocity)
+                                                     for c in commands)
+    fixture = VirtualFixture(planes, gain=1.0, buffer=0.5, period=0.1, backend="c")
+    refused = fixture.step(p, ["a", "b", "c"], fp)
+    assert not refused.ok and "not numbers" in refused.reason
+    assert not fixture.step(p, f[:2], fp).ok
