@@ -157,6 +157,8 @@ def _extension(cffi, texts: dict[str, str], folder: Path):
     if not path.exists() and not failed.exists():
         try:
             _build_extension(cffi, texts, path)
+        except subprocess.TimeoutExpired:  # a busy machine: try again next time
+            return None
         except Exception as exc:  # noqa: BLE001 (any build failure: the shared library serves)
             failed.write_text(f"{type(exc).__name__}: {exc}\n")
             return None
