@@ -14,7 +14,10 @@ Three garbage-collector regimes, each a row per side:
   reference counting the moment they die; the step makes no cycles: gc.collect() after the
   loop finds nothing, or the run says so).
 `kib_per_tick` is the peak traced memory of one step above what it keeps (tracemalloc, a
-separate pass): what the step allocates and frees again. Writes results/rcm_tail.json.
+separate pass): what the step allocates and frees again. `gc_runs_in_loop_both_sides` and
+`longest_gc_ms` count the collector's runs during the loop (gc.callbacks; old and new share
+them): few, since a step's arrays are not tracked by the collector; a tick above 1 ms without
+a collection is the scheduler (see the record's load average). Writes results/rcm_tail.json.
 """
 
 from __future__ import annotations
@@ -57,7 +60,21 @@ def controllers(Old, points: int) -> dict:
     return {"old": old, "new": new}
 
 
-def run(Old, points: int, ticks: int, regime: str) -> dict[str, list[int]]:
+class Collections:
+    """The cycle collector's runs while it is installed (gc.callbacks): how many, the longest."""
+
+    def __init__(self) -> None:
+        self.runs, self.longest_ns, self._start = 0, 0, 0
+
+    def __call__(self, phase: str, info: dict) -> None:
+        if phase == "start":
+            self._start = time.perf_counter_ns()
+        else:
+            self.runs += 1
+            self.longest_ns = max(self.longest_ns, time.perf_counter_ns() - self._start)
+
+
+def run(Old, points: int, ticks: int, regime: str, collections: Collections) -> dict[str, list[int]]:
     sides = controllers(Old, points)
     wrenches = [guidance(i * 0.004) for i in range(ticks)]
     times: dict[str, list[int]] = {side: [] for side in sides}
@@ -67,6 +84,7 @@ def run(Old, points: int, ticks: int, regime: str) -> dict[str, list[int]]:
         gc.freeze()
     if regime == "frozen+off":
         gc.disable()
+    gc.callbacks.append(collections)
     try:
         for start in range(0, ticks, BLOCK):
             for side, c in sides.items():
@@ -76,6 +94,7 @@ def run(Old, points: int, ticks: int, regime: str) -> dict[str, list[int]]:
                     c.step(w)
                     out.append(time.perf_counter_ns() - t0)
     finally:
+        gc.callbacks.remove(collections)
         if frozen:
             gc.enable()
             gc.unfreeze()
@@ -112,7 +131,8 @@ def main() -> None:
         Old = old_controller_class(args.old, Path(tmp))
         kib = {side: allocated_kib(c) for side, c in controllers(Old, args.points).items()}
         for regime in ("on", "frozen", "frozen+off"):
-            times = run(Old, args.points, args.ticks, regime)
+            collections = Collections()
+            times = run(Old, args.points, args.ticks, regime, collections)
             for side in ("old", "new"):
                 stats = latency(times[side], unit=1e-6)
                 rows.append({"case": f"step tip {args.points} pts", "side": side,
@@ -121,7 +141,9 @@ def main() -> None:
                              "ticks": args.ticks, **{k: round(v, 3) for k, v in stats.items()},
                              "over_1ms": sum(t > 1e6 for t in times[side]),
                              "over_2ms": sum(t > 2e6 for t in times[side]),
-                             "kib_per_tick": round(kib[side], 1)})
+                             "kib_per_tick": round(kib[side], 1),
+                             "gc_runs_in_loop_both_sides": collections.runs,
+                             "longest_gc_ms": round(collections.longest_ns / 1e6, 3)})
             old, new = rows[-2], rows[-1]
             new["speedup_median"] = round(old["median_ms"] / new["median_ms"], 2)
             new["speedup_p99"] = round(old["p99_ms"] / new["p99_ms"], 2)
