@@ -24,7 +24,7 @@ import sys
 import time
 
 import numpy as np
-from common import record
+from common import latency, record
 
 from certiloop.studies.sbs.fixture import VirtualFixture
 from certiloop.studies.sbs.generated import ctrl2
@@ -37,13 +37,18 @@ def planes(m: int, rng) -> list:
     return list(zip(points, normals))
 
 
-def median_us(fn, calls: int) -> float:
+def timed_us(fn, calls: int) -> dict[str, float]:
+    """Median, p99 and max (µs) of `calls` calls, each timed alone."""
     times = []
     for _ in range(calls):
         t0 = time.perf_counter_ns()
         fn()
         times.append(time.perf_counter_ns() - t0)
-    return statistics.median(times) / 1000
+    return latency(times, unit=1e-3, suffix="us")
+
+
+def median_us(fn, calls: int) -> float:
+    return timed_us(fn, calls)["median_us"]
 
 
 def measure(m: int, rng, calls: int) -> dict:
@@ -53,14 +58,16 @@ def measure(m: int, rng, calls: int) -> dict:
     p, f, fp = np.zeros(3), np.array([1.0, -2.0, 0.5]), np.array([0.1, 0.0, -0.3])
     n, r = fixture._normals, fixture._points
     args = (*p, *fp, *f, 0.5, 0.0182, 1.0, r[:, 0], n[:, 0], r[:, 1], n[:, 1], r[:, 2], n[:, 2])
-    step = median_us(lambda: fixture.step(p, f, fp), calls)
+    step = timed_us(lambda: fixture.step(p, f, fp), calls)
     numpy_fixture = VirtualFixture(planes_, gain=1.0, buffer=0.5, period=0.0182, position_tolerance=np.inf,
                                    backend="python")
-    numpy_step = median_us(lambda: numpy_fixture.step(p, f, fp), calls)
+    numpy_step = timed_us(lambda: numpy_fixture.step(p, f, fp), calls)
     bare = median_us(lambda: ctrl2.controller(*args), calls)
-    return {"boundaries": m, "backend": fixture.backend, "step_median_us": round(step, 1),
-            "numpy_step_median_us": round(numpy_step, 1), "numpy_controller_median_us": round(bare, 1),
-            "numpy_monitor_and_checks_us": round(numpy_step - bare, 1)}
+    return {"boundaries": m, "backend": fixture.backend,
+            **{f"step_{k}": round(v, 1) for k, v in step.items()},
+            **{f"numpy_step_{k}": round(v, 1) for k, v in numpy_step.items()},
+            "numpy_controller_median_us": round(bare, 1),
+            "numpy_monitor_and_checks_us": round(numpy_step["median_us"] - bare, 1)}
 
 
 SIZES = (1, 10, 100, 1000)

@@ -6,7 +6,9 @@ controller's; 1 ms: a 1 kHz haptic loop).
 
 The planes are those of benchmarks/bench_kernel.py (same generator, same seed) and the state
 is the same, so the two tables compare. The driver calls the step in batches of CALLS and
-reports the median batch time per call over BATCHES batches (clock_gettime, CLOCK_MONOTONIC).
+reports the median batch time per call over BATCHES batches (clock_gettime, CLOCK_MONOTONIC),
+and the p99 and max over batches of the step's time per call (a batch's mean: a preempted
+batch shows as a slow one).
 
     python benchmarks/bench_kernel_c.py [--calls 2000] [--batches 200] [--plain-from COMMIT]
 
@@ -98,8 +100,8 @@ int main(int argc, char **argv)
     qsort(step_ns, (size_t)batches, sizeof(double), by_value);
     qsort(bare_ns, (size_t)batches, sizeof(double), by_value);
     qsort(plain_ns, (size_t)batches, sizeof(double), by_value);
-    printf("%.17g %.17g %d %.17g %.17g\n", step_ns[batches / 2], bare_ns[batches / 2], reason, k,
-           plain_ns[batches / 2]);
+    printf("%.17g %.17g %d %.17g %.17g %.17g %.17g\n", step_ns[batches / 2], bare_ns[batches / 2], reason, k,
+           plain_ns[batches / 2], step_ns[(long)(0.99 * (double)(batches - 1))], step_ns[batches - 1]);
     return 0;
 }
 """
@@ -160,7 +162,10 @@ def measure(m: int, rng, calls: int, batches: int, cc: str, work: Path, plain: s
     if int(out[2]) != 0:
         raise SystemExit(f"{m} planes: the step fell back (reason {out[2]}); the timing would not be the "
                          "verified path")
-    row = {"boundaries": m, "step_median_us": round(step_us, 3), "controller_median_us": round(bare_us, 3),
+    row = {"boundaries": m, "step_median_us": round(step_us, 3),
+           "step_batch_p99_us": round(float(out[5]) / 1000, 3),
+           "step_batch_max_us": round(float(out[6]) / 1000, 3),
+           "controller_median_us": round(bare_us, 3),
            "k": round(float(out[3]), 6)}
     if plain != PLAIN_STUB:
         row["plain_float_controller_us"] = round(plain_us, 3)

@@ -28,6 +28,15 @@ def summary(times: list[float]) -> dict[str, float]:
             "runs": len(times)}
 
 
+def latency(samples, unit: float = 1.0, suffix: str = "ms") -> dict[str, float]:
+    """Median, p99 and max of per-call times (each times `unit`): a control loop lives by its
+    worst tick, so every kernel's record gives all three."""
+    ordered = sorted(samples)
+    n = len(ordered)
+    return {f"median_{suffix}": statistics.median(ordered) * unit,
+            f"p99_{suffix}": ordered[min(n - 1, int(0.99 * n))] * unit, f"max_{suffix}": ordered[-1] * unit}
+
+
 def record(name: str, rows: list[dict]) -> None:
     """Print rows as a table and write them, with machine facts, to results/NAME.json."""
     keys = list(rows[0])
@@ -41,7 +50,8 @@ def record(name: str, rows: list[dict]) -> None:
         measured = {r["model"] for r in rows}
         rows = [r for r in json.loads(path.read_text())["rows"] if r.get("model") not in measured] + rows
     payload = {"benchmark": name, "python": sys.version.split()[0], "machine": platform.machine(),
-               "cores": _cores(), "date": time.strftime("%Y-%m-%d"), "rows": rows}
+               "cores": _cores(), "load_average_1_5_15min": _load(), "date": time.strftime("%Y-%m-%d"),
+               "rows": rows}
     path.write_text(json.dumps(payload, indent=2) + "\n")
 
 
@@ -49,6 +59,17 @@ def _cores() -> int:
     import os
 
     return os.cpu_count() or 1
+
+
+def _load() -> list[float] | None:
+    """The machine's load when the record was written: a latency tail taken beside other work
+    (load above the cores) shows the scheduler, not the code."""
+    import os
+
+    try:
+        return [round(x, 2) for x in os.getloadavg()]
+    except OSError:
+        return None
 
 
 def _fmt(x) -> str:

@@ -187,7 +187,7 @@ class Positioning:
             step = np.stack([np.einsum("ri,ri->r", err, c23), np.einsum("ri,ri->r", j1, np.cross(err, j3)),
                              np.einsum("ri,ri->r", j1, np.cross(j2, err))], axis=1) / safe[:, None]
             out = qp + step
-        ok &= np.all(np.isfinite(out), axis=1)
+        ok &= np.isfinite(out).all(axis=1)
         return np.where(ok[:, None], out, qp)
 
 
@@ -231,8 +231,8 @@ class RavenArm:
         p = self.p
         target = np.asarray(target, dtype=float)
         qp, vp = state.q[:, :3], state.qdot[:, :3]
-        ok_state = np.all(np.isfinite(state.q), axis=1) & np.all(np.isfinite(state.qdot), axis=1)
-        ok = ok_state & np.all(np.isfinite(target), axis=-1) & np.all(np.isfinite(state.integral), axis=1)
+        ok_state = np.isfinite(state.q).all(axis=1) & np.isfinite(state.qdot).all(axis=1)
+        ok = ok_state & np.isfinite(target).all(axis=-1) & np.isfinite(state.integral).all(axis=1)
         with np.errstate(invalid="ignore", over="ignore"):
             err = np.where(ok[:, None], target[..., :3] - qp, 0.0)
             integral = np.where(ok[:, None], state.integral + err * p.dt, 0.0)
@@ -240,7 +240,7 @@ class RavenArm:
             brake = np.where(ok_state[:, None], -p.kd * vp, 0.0)
             tau = np.where(ok[:, None], tau, brake)
         tau = np.where(np.isfinite(tau), tau, 0.0)
-        return np.clip(tau, -p.tau_max, p.tau_max), integral, ~ok
+        return tau.clip(-p.tau_max, p.tau_max), integral, ~ok
 
     def step(self, state: ArmState, target, tau_override=None) -> tuple[ArmState, np.ndarray, np.ndarray]:
         """One 1 ms tick. `tau_override` (R, 3), where finite, replaces the controller's
@@ -250,16 +250,16 @@ class RavenArm:
         tau, integral, braked = self.torque(state, target)
         if tau_override is not None:
             over = np.asarray(tau_override, dtype=float)
-            tau = np.clip(np.where(np.isfinite(over), over, tau), -p.tau_max, p.tau_max)
+            tau = np.where(np.isfinite(over), over, tau).clip(-p.tau_max, p.tau_max)
         qp, vp = state.q[:, :3], state.qdot[:, :3]
-        finite = np.all(np.isfinite(qp), axis=1) & np.all(np.isfinite(vp), axis=1)
+        finite = np.isfinite(qp).all(axis=1) & np.isfinite(vp).all(axis=1)
         vp = np.where(finite[:, None], vp, 0.0)
-        qp = np.where(finite[:, None], qp, np.nan_to_num(qp, nan=0.0, posinf=0.0, neginf=0.0))
+        qp = np.where(np.isfinite(qp), qp, 0.0)  # a non-finite joint held at 0, the finite ones kept
         acc = (tau - p.damping * vp) / p.inertia
         v_new = vp + acc * p.dt  # semi-implicit Euler
         q_new = qp + v_new * p.dt
         tool_target = np.asarray(target, dtype=float)[..., 3:]
-        tool_ok = np.all(np.isfinite(tool_target), axis=-1)
+        tool_ok = np.isfinite(tool_target).all(axis=-1)
         tool_q = np.where(tool_ok[:, None], tool_target, state.q[:, 3:])
         tool_q = np.where(np.isfinite(tool_q), tool_q, 0.0)
         with np.errstate(over="ignore", invalid="ignore"):

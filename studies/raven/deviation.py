@@ -50,7 +50,7 @@ def _finite(*arrays: np.ndarray) -> np.ndarray:
     """Per run: every coordinate of every array is finite."""
     ok = None
     for a in arrays:
-        f = np.all(np.isfinite(a), axis=-1)
+        f = np.isfinite(a).all(axis=-1)
         ok = f if ok is None else ok & f
     return ok
 

@@ -54,19 +54,42 @@ def variable_damping(xf_dot: np.ndarray, f_rx: np.ndarray, g: Gains = TABLE1) ->
     element and ||.|| of elements 2-4 of x_f' and of F_rx = Z_x F_r (the erratum's Z_x, not Z_x^T)."""
     s = np.array([abs(xf_dot[0]), *[np.linalg.norm(xf_dot[1:4])] * 3, 0.0])
     z = np.array([abs(f_rx[0]), *[np.linalg.norm(f_rx[1:4])] * 3, 0.0])
-    return (np.asarray(g.d_const) + np.asarray(g.q_gain) * np.exp(-np.asarray(g.m_gain) * s)
-            + np.asarray(g.g_gain) * (1.0 - np.exp(-np.asarray(g.c_gain) * z * z)))
+    d_const, q_gain, m_gain, g_gain, c_gain = _gain_arrays(g)
+    return d_const + q_gain * np.exp(-m_gain * s) + g_gain * (1.0 - np.exp(-c_gain * z * z))
+
+
+_GAIN_ARRAYS: dict = {}
+
+
+def _gain_arrays(g: Gains) -> tuple:
+    """D_c, Q, M, G, C as arrays, made once per gain table (Gains is frozen)."""
+    arrays = _GAIN_ARRAYS.get(g)
+    if arrays is None:
+        arrays = _GAIN_ARRAYS[g] = tuple(np.asarray(x, dtype=float) for x in (g.d_const, g.q_gain, g.m_gain,
+                                                                               g.g_gain, g.c_gain))
+    return arrays
 
 
 def hat(r: np.ndarray) -> np.ndarray:
     return np.array([[0.0, -r[2], r[1]], [r[2], 0.0, -r[0]], [-r[1], r[0], 0.0]])
 
 
+_MINORS = np.array([[j for j in range(7) if j != i] for i in range(7)])   # column i left out, row i
+_COFACTOR_SIGNS = np.array([1, -1, 1, -1, 1, -1, 1])
+
+
 def redundancy_row(J: np.ndarray) -> np.ndarray:
     """G (1x7) with G J^T = 0: signed 6x6 cofactors (continuous, unlike an SVD null vector), unit norm."""
-    minors = np.stack([np.delete(J, i, axis=1) for i in range(7)])
-    g = np.linalg.det(minors) * np.array([1, -1, 1, -1, 1, -1, 1])
+    minors = J[:, _MINORS].transpose(1, 0, 2)          # minors[i] = J without column i
+    g = np.linalg.det(minors) * _COFACTOR_SIGNS
     return g / np.linalg.norm(g)
+
+
+def _cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """np.cross of (m, 3) rows, with its arithmetic (a1 b2 - a2 b1, ...), without its axis handling."""
+    a0, a1, a2 = a[:, 0], a[:, 1], a[:, 2]
+    b0, b1, b2 = b[:, 0], b[:, 1], b[:, 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=1)
 
 
 @dataclass
@@ -93,7 +116,7 @@ def mapping(q: np.ndarray, p_c: np.ndarray, tool_length: float) -> Mapping:
     p_e = T[:3, 3]
     p_t = p_e + tool_length * n
     axes, origins = frames[:7, :3, 2], frames[:7, :3, 3]
-    J = np.vstack([np.cross(axes, p_t - origins).T, axes.T])   # as rcm.lwr4_jacobian, vectorised
+    J = np.vstack([_cross_rows(axes, p_t - origins).T, axes.T])   # as rcm.lwr4_jacobian, vectorised
     r = p_t - p_c
     Bt = np.vstack([a, o])
     x_c = Bt @ r

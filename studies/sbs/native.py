@@ -13,16 +13,19 @@ source is rebuilt, never mixed up. No numpy here.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
+import importlib.util
 import os
 import re
 import shutil
 import subprocess
+import sysconfig
 import tempfile
 from pathlib import Path
 
-SOURCES = ("sbs_ctrl2.c", "sbs_ctrl2_fixture.c")
-HEADERS = ("sbs_ctrl2.h", "sbs_ctrl2_fixture.h")
+SOURCES = ("sbs_ctrl2.c", "sbs_ctrl2_fixture.c", "sbs_ctrl2_fixture_calls.c")
+HEADERS = ("sbs_ctrl2.h", "sbs_ctrl2_fixture.h", "sbs_ctrl2_fixture_calls.h")
 KERNEL_C = Path(__file__).resolve().parent / "generated" / "c"  # sbs_ctrl2.[ch], extracted from sbs.ctrl2
 FIXTURE_C = Path(__file__).resolve().parent / "native_c"  # the hand-written fixture step around it
 # the project's C flags (kernel.extract.c_syntax.CFLAGS; a test keeps the two equal)
@@ -38,16 +41,36 @@ int sbs_ctrl2_fixture_step(const double p[3], const double f[3], const double fp
                            double G, double D, double e, double dt, double position_tolerance,
                            sbs_ctrl2_memory *memory, double *k);
 """
+# the declarations of sbs_ctrl2_fixture_calls.h (a test checks them against it): one context
+# filled once, inputs by value, and a loop over many periods -- a call with few arguments
+CDEF_CALLS = """
+typedef struct {
+    const double *rx, *ry, *rz, *nx, *ny, *nz;
+    size_t n;
+    double G, D, e, position_tolerance;
+    sbs_ctrl2_memory memory;
+    sbs_ctrl2_memory before;
+    double k;
+} sbs_ctrl2_fixture_context;
+int sbs_ctrl2_fixture_step_values(sbs_ctrl2_fixture_context *c, double px, double py, double pz, double fx,
+                                  double fy, double fz, double fpx, double fpy, double fpz, double dt);
+size_t sbs_ctrl2_fixture_step_many(sbs_ctrl2_fixture_context *c, const double *inputs, size_t rows,
+                                   const double *dt, size_t dt_stride, double *k, int *reason);
+"""
 
 
 class Native:
-    """The loaded library: `step` is sbs_ctrl2_fixture_step; `doubles(address)` a C pointer to
-    float64 data at an address (a numpy array's .ctypes.data; the caller keeps the array alive),
-    `memory()` a fresh sbs_ctrl2_memory, `out()` a double to write into."""
+    """The loaded library: `step` is sbs_ctrl2_fixture_step, `step_values` and `step_many` those
+    of sbs_ctrl2_fixture_calls.h; `doubles(address)` a C pointer to float64 data at an address (a
+    numpy array's .ctypes.data; the caller keeps the array alive), `memory()` a fresh
+    sbs_ctrl2_memory, `context()` a fresh sbs_ctrl2_fixture_context, `out()` a double to write
+    into, `buffer(kind, array)` a C pointer into a numpy array's data (kept alive with it)."""
 
     def __init__(self, ffi, lib) -> None:
         self.ffi, self.lib = ffi, lib
         self.step = lib.sbs_ctrl2_fixture_step
+        self.step_values = lib.sbs_ctrl2_fixture_step_values
+        self.step_many = lib.sbs_ctrl2_fixture_step_many
 
     def doubles(self, address: int):
         return self.ffi.cast("double *", address)
@@ -57,6 +80,12 @@ class Native:
 
     def out(self):
         return self.ffi.new("double *")
+
+    def context(self):
+        return self.ffi.new("sbs_ctrl2_fixture_context *")
+
+    def buffer(self, kind: str, array):
+        return self.ffi.from_buffer(kind, array)
 
 
 _state: dict = {}
@@ -104,13 +133,74 @@ def _load():
         why = _build(texts, library)
         if why:
             return None, why
+    module = _extension(cffi, texts, library.parent)
+    if module is not None:
+        return Native(module.ffi, module.lib), ""
     ffi = cffi.FFI()
     ffi.cdef(CDEF)
+    ffi.cdef(CDEF_CALLS)
     try:
         lib = ffi.dlopen(str(library))
     except OSError as exc:
         return None, f"cannot load {library}: {exc}"
     return Native(ffi, lib), ""
+
+
+EXTENSION = "_certiloop_sbs_ctrl2"
+
+
+def _extension(cffi, texts: dict[str, str], folder: Path):
+    """The same C as a compiled cffi extension module (API mode: a call costs ~0.2 µs where the
+    shared library through libffi takes ~1), built once beside the library; None where it cannot
+    be built (no Python headers, no setuptools: the library then serves, and the failure is
+    remembered so that it is not retried on every start)."""
+    tag = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+    path, failed = folder / f"{EXTENSION}{tag}", folder / f"{EXTENSION}{tag}.failed"
+    if not path.exists() and not failed.exists():
+        try:
+            _build_extension(cffi, texts, path)
+        except subprocess.TimeoutExpired:  # a busy machine: try again next time
+            return None
+        except Exception as exc:  # noqa: BLE001 (any build failure: the shared library serves)
+            failed.write_text(f"{type(exc).__name__}: {exc}\n")
+            return None
+    if not path.exists():
+        return None
+    try:
+        spec = importlib.util.spec_from_file_location(EXTENSION, path)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    except ImportError:
+        return None
+    return module
+
+
+def _build_extension(cffi, texts: dict[str, str], path: Path) -> None:
+    """Our C compiled with the project's flags, the cffi glue around it with the compiler's
+    defaults (it does no arithmetic); the module moved into place atomically."""
+    cc = next((shutil.which(n) for n in (os.environ.get("CC"), "cc", "gcc") if n and shutil.which(n)), None)
+    if cc is None:
+        raise OSError("no C compiler")
+    with tempfile.TemporaryDirectory(dir=path.parent) as tmp:
+        for name, text in texts.items():
+            (Path(tmp) / name).write_text(text)
+        objects = []
+        for source in SOURCES:
+            obj = str(Path(tmp) / (source[:-2] + ".o"))
+            done = subprocess.run([cc, *FLAGS, "-fPIC", "-c", source, "-o", obj], cwd=tmp,
+                                  capture_output=True, text=True, timeout=120)
+            if done.returncode != 0:
+                raise OSError(done.stderr.strip()[:200])
+            objects.append(obj)
+        ffi = cffi.FFI()
+        ffi.cdef(CDEF)
+        ffi.cdef(CDEF_CALLS)
+        ffi.set_source(EXTENSION, '#include "sbs_ctrl2_fixture_calls.h"', include_dirs=[tmp],
+                       extra_objects=objects, libraries=["m"])
+        with open(os.devnull, "w") as quiet, contextlib.redirect_stdout(quiet), \
+                contextlib.redirect_stderr(quiet):
+            built = ffi.compile(tmpdir=tmp, verbose=False)
+        os.replace(built, path)
 
 
 def _build(texts: dict[str, str], library: Path) -> str:
