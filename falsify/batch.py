@@ -33,6 +33,7 @@ from typing import Any
 
 import numpy as np
 
+from certiloop.falsify.along import signed_domain, signs
 from certiloop.falsify.batch_ints import IntBatchProgram, has_ints
 from certiloop.falsify.batch_open import OpenValues, runs, solve_affine
 from certiloop.falsify.batch_state import Bind, State
@@ -128,7 +129,10 @@ class _Flow:
         self.rhs = [vc(f) for f in self.rhs_nodes]
         self.domain = ode.domain
         self.domain_truth = vc(ode.domain)
-        self.domain_margin = vc.margin(conserved_apart(ode)[0])  # along the flow (flows.py)
+        # along the flow (flows.py), `a != b` as "a - b keeps its starting sign" (along.py)
+        signed, pairs = signed_domain(conserved_apart(ode)[0])
+        self.domain_margin = vc.margin(signed)
+        self.sign_pairs = [(name, vc(d)) for name, d in pairs]
         s, solution = flow_solution(ode)
         self.s_name = s.payload
         self.solution = None if solution is None else {n: vc(x) for n, x in solution.items()}
@@ -174,7 +178,9 @@ class _Flow:
 
     def _margin_at(self, S: State, times: np.ndarray) -> np.ndarray:
         grid = times.ndim == 2
-        env = {k: (v[:, None] if grid else v) for k, v in S.vals.items()}
+        with np.errstate(all="ignore"):
+            start = {**S.vals, **signs(self.sign_pairs, S.vals)}
+        env = {k: (v[:, None] if grid else v) for k, v in start.items()}
         traj = self.states(S, times)
         env.update(traj)
         m = np.broadcast_to(self.domain_margin(env), times.shape).astype(float)

@@ -5,12 +5,13 @@ vectorised batches whose decisions come from numpy's generator seeded with the s
 seed (the same verdict for the same seed). A violating run of a batch is a candidate only:
 the tree-walking interpreter replays its initial state and decisions, in exact rational
 arithmetic where the flows have closed forms, else with validated enclosures of the flows
-(`validated.py`), else in floating point (so named) with a violation deeper than the
-search's tolerance — the check every reported counterexample passes. A
-candidate that does not replay is dropped. A model with families runs each round's runs
-split over the family sizes of the search's range, one batch per size (`_split`); a
-Hoare triple over integers (`batch_ints.py`) splits them the same way over group slots,
-each batch with integer constants of its own.
+(`validated.py`) — the check every reported counterexample passes. A candidate the exact
+replay rejects (it blocks where the floats went on, or ends without a violation) is dropped;
+one only floating point shows violating, deeper than the search's tolerance, is kept as an
+unconfirmed candidate (so reported, never as a counterexample) while the search goes on.
+A model with families runs each round's runs split over the family sizes of the search's
+range, one batch per size (`_split`); a Hoare triple over integers (`batch_ints.py`) splits
+them the same way over group slots, each batch with integer constants of its own.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import numpy as np
 
 from certiloop.falsify.batch import compiled
 from certiloop.falsify.choosers import Diverged, Scripted
-from certiloop.falsify.depth import _deep, float_only
+from certiloop.falsify.depth import FLOAT_ONLY, _deep, float_only
 from certiloop.falsify.evaluate import Blocked, Compiler, NeedValue, Table
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
@@ -47,6 +48,8 @@ class BatchOutcome:
     initial: dict[str, Any] | None = None
     script: list[tuple[str, Any]] | None = None
     unsupported: str = ""  # why the model has no batch phase
+    # the first run only floating point shows violating: (run, check, script, initial, runs drawn)
+    candidate: tuple | None = None
 
 
 def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
@@ -61,6 +64,7 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
     rng = np.random.default_rng(seed)
     sizes = program.sizes(families)
     drawn = started = confirms = 0
+    candidate = None
     size = max(1, first)
     while drawn < runs:
         size = min(size, runs - drawn)
@@ -73,11 +77,13 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
                 confirms += 1
                 initial, script = batch.initial_state(r), batch.script(r)
                 run, check = confirm_candidate(theorem, initial, script, max_steps, families)
-                if check:
+                if check.startswith(FLOAT_ONLY):  # kept, in case nothing confirmed turns up
+                    candidate = candidate or (run, check, script, initial, drawn + r + 1)
+                elif check:
                     return BatchOutcome(drawn + r + 1, started, run, check, initial, script)
             drawn += count
         size = _grow(size, len(sizes))
-    return BatchOutcome(drawn, started)
+    return BatchOutcome(drawn, started, candidate=candidate)
 
 
 def _grow(size: int, sizes: int) -> int:
@@ -114,6 +120,7 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
         if exact_run.violated is not None:
             shown = run if run is not None and run.violated is not None else exact_run
             return shown, "replayed in exact rational arithmetic"
+        return None, ""  # the exact run ends without a violation
     except Inexact:  # a flow without a closed form: follow it by validated enclosures
         from certiloop.falsify.validated import confirm_enclosed
 
@@ -121,8 +128,10 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
         validated, why = confirm_enclosed(theorem, script, max_steps, families, start, retreat=deep)
         if validated and run is not None and run.violated is not None:
             return run, validated
-    except failures:
-        pass
+    except (Blocked, Rejected, Diverged):  # blocks or turns where the floats went on (e.g. at a
+        return None, ""  # domain's edge), or the start misses the assumptions: not a run
+    except ArithmeticError as exc:
+        why = f"the exact replay failed: {type(exc).__name__}"
     if run is not None and run.violated is not None and _deep(run):
         return run, float_only(run, why)
     return None, ""
