@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from certiloop.models.lang.terms import And, Node, Or, Var
+from certiloop.models.lang.terms import TRUE, And, Node, Or, Var
 
 SIGN = "sign@along"  # the fresh variables' prefix ("@": never part of a shown state)
 
@@ -37,6 +37,26 @@ def signed_domain(domain: Node) -> tuple[Node, list[tuple[str, Node]]]:
         return n  # under a negation or an implication: left as written
 
     return walk(domain), pairs
+
+
+def sign_kept_parts(domain: Node) -> list[Node]:
+    """[the domain without its top-level numeric `a != b` conjuncts, then each such a - b]
+    (empty if it has none). The exact replay decides `a != b` all along a flow as "a - b > 0
+    all along or a - b < 0 all along", which a polynomial's continuity makes the same."""
+    conj = domain.args if domain.op == "and" else (domain,)
+    differences = [a.args[0] - a.args[1] for a in conj
+                   if a.op == "cmp" and a.payload == "!=" and a.args[0].sort.is_numeric]
+    if not differences:
+        return []
+    rest = [a for a in conj if not (a.op == "cmp" and a.payload == "!=" and a.args[0].sort.is_numeric)]
+    return [And(*rest) if rest else TRUE, *differences]
+
+
+def keeps_sign(difference: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
+    """d(x(s)) != 0 for all s in [0, τ], exactly where d is polynomial in s."""
+    from certiloop.proofs.core.odes import _keeps_sign
+
+    return _keeps_sign(difference, solution, tau, s)
 
 
 def signs(pairs: list[tuple[str, Callable[[Any], Any]]], start: Any) -> dict[str, Any]:

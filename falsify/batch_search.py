@@ -37,6 +37,7 @@ FIRST_BATCH = 256  # ... but an easy counterexample needs no 4,096 runs: 256, 1,
 CONFIRMS_PER_BATCH = 16  # candidates replayed per batch (deepest first)
 SNAP = 1e-9  # relative: how far rounding may have moved a value an equation pins down
 MAX_CONFIRMS = 32  # replays in all: float-only near misses of a safe model stay cheap
+AFTER_CANDIDATE = 4  # replays left once a run only floating point shows violating was kept
 
 
 @dataclass
@@ -79,6 +80,8 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
                 run, check = confirm_candidate(theorem, initial, script, max_steps, families)
                 if check.startswith(FLOAT_ONLY):  # kept, in case nothing confirmed turns up
                     candidate = candidate or (run, check, script, initial, drawn + r + 1)
+                    # the next few replays only: float-only runs of one model tend to be alike
+                    confirms = max(confirms, MAX_CONFIRMS - AFTER_CANDIDATE)
                 elif check:
                     return BatchOutcome(drawn + r + 1, started, run, check, initial, script)
             drawn += count

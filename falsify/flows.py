@@ -13,7 +13,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from certiloop.falsify.along import signed_domain, signs
+from certiloop.falsify.along import keeps_sign, sign_kept_parts, signed_domain, signs
 from certiloop.falsify.evaluate import Blocked, Compiler, margin
 from certiloop.falsify.vectorise import Unsupported, VCompiler
 from certiloop.models.lang.programs import ODE
@@ -268,8 +268,15 @@ class Flow:
         if tau < 0:
             raise Blocked("negative ODE duration")
         if self._along is None:
-            # the domain, and the right-hand side as written defined all along (x' = x/x)
-            self._along = runs_along(self.ode, self.symbolic, Var("tau@flow"), Var(self.s_name))
+            # the domain, and the right-hand side as written defined all along (x' = x/x);
+            # `a != b` as "a - b keeps one sign" (`along.py`), which is decided exactly
+            ode, parts = self.ode, sign_kept_parts(self.ode.domain)
+            if parts:
+                ode = ODE(ode.eqs, parts[0])
+            along = runs_along(ode, self.symbolic, Var("tau@flow"), Var(self.s_name))
+            for difference in parts[1:]:
+                along = And(along, keeps_sign(difference, self.symbolic, Var("tau@flow"), Var(self.s_name)))
+            self._along = along
         env = exact_view(state)
         env["tau@flow"] = tau
         if truth(self._along, env) is not True:

@@ -118,9 +118,15 @@ class Falsification:
         if self.run is not None:
             out["counterexample"] = {"trace": [c.to_json() for c in self.run.checkpoints],
                                      "violated": self.run.violated, "check": self.check,
-                                     "validated": self.validated,
-                                     "steps": self.run.checkpoints[-1].step}
+                                     "validated": self.validated, "confirmed": self.found,
+                                     "shrunk": self.shrunk, "steps": self.run.checkpoints[-1].step,
+                                     # the run's decisions as replayed (exact: "1/10"), in order
+                                     "decisions": [[kind, _text(v)] for kind, v in self.script]}
         return out
+
+
+def _text(v: Any) -> Any:
+    return v if isinstance(v, (bool, int)) else str(v)
 
 
 def _modal(f: Node) -> bool:
@@ -209,9 +215,10 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
             # shrinking a confirmed run: a violation far beyond rounding needs no replay on
             # each step; the shrunk run is replayed once at the end (else the first one stands)
             raise _Found(run, "deep", chooser.script)
+        # enclosures (up to a second each) for the first few violations beyond rounding only
         enclose = count["near"] < MAX_ENCLOSED and -worst > ENCLOSE_ABOVE * tolerance
         count["near"] += enclose
-        check = confirm(theorem, chooser.script, run, opts, enclose=enclose or worst < -tolerance)
+        check = confirm(theorem, chooser.script, run, opts, enclose=enclose)
         if not check:
             return  # the exact replay rejects the run: no counterexample, not even a candidate
         if check.startswith(FLOAT_ONLY):
@@ -295,10 +302,12 @@ def shrunk(theorem: Theorem, opts: Options, found: Falsification) -> Falsificati
         return True
 
     script, initial = shrink(found.script, found.initial, confirms)
-    if script == found.script and initial == found.initial or not confirms(script, initial):
+    if not confirms(script, initial):  # cannot be (each value was kept only if it confirmed)
         return found
+    # the run shown is the exact replay's: its states are the rationals the replay confirmed
     return Falsification(found.model, True, found.examples, found.seconds, last["run"], EXACT, script,
-                         phase=found.phase, initial=initial, shrunk=True)
+                         phase=found.phase, initial=initial,
+                         shrunk=script != found.script or initial != found.initial)
 
 
 @contextmanager

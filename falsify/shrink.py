@@ -29,7 +29,8 @@ def simpler(v: Any) -> list[Fraction]:
         return []
     x = Fraction(v)
     out: list[Fraction] = [Fraction(0), Fraction(math.floor(x)), Fraction(math.ceil(x))]
-    out += [Fraction(round(x * d), d) for d in DENOMINATORS]
+    for d in DENOMINATORS:  # nearest, below and above: a run near an edge keeps to its side
+        out += [Fraction(round(x * d), d), Fraction(math.floor(x * d), d), Fraction(math.ceil(x * d), d)]
     out += [x.limit_denominator(d) for d in DENOMINATORS]
     seen: set[Fraction] = set()
     ranked = []
