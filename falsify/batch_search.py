@@ -166,7 +166,21 @@ def exact_initial(theorem: Theorem, initial: dict[str, float], c: Compiler) -> d
             if holds(s):
                 break
             s[name] = old
+        else:  # no value solves it linearly: a circle u^2 + v^2 = r^2 has dense rational points
+            _snap_to_circle(atom, s, holds)
     return s
+
+
+def _snap_to_circle(atom, s: dict[str, Any], holds) -> None:
+    from certiloop.falsify.snap_circle import circle_point
+
+    point = circle_point(atom, s, [n for n in read_order(atom) if n in s])
+    if point is None or any(abs(x - s[n]) > SNAP * (1 + abs(s[n])) for n, x in point.items()):
+        return
+    old = {n: s[n] for n in point}
+    s.update(point)
+    if not holds(s):
+        s.update(old)
 
 
 def _exact(v: Any) -> Any:
