@@ -155,3 +155,71 @@ def test_the_cli_exits_1_on_a_false_claim_with_a_confirmed_run(tmp_path):
     assert row["verdict"] == "refuted" and cex["confirmed"] and cex["validated"]
     durations = [Fraction(v) for kind, v in cex["decisions"] if kind == "duration"]
     assert len(durations) == 1 and 1 <= durations[0] < 3  # x = d from 0, avoiding 3, and not x < 1
+
+
+TANK = '''
+from certiloop.models.lang.programs import assign, havoc, loop, ode, seq, test
+from certiloop.models.lang.terms import And, Reals
+from certiloop.models.lang.theorem import Theorem
+
+h, H, q, t, T = Reals("h H q t T")
+
+
+def tank():
+    # inflow q in [0, (H - h)/T], the bound written -(h - H)/T: -0.0 when the tank is full
+    control = seq(havoc(q), test(And(0 <= q, q <= -(h - H) / T)))
+    plant = seq(assign(t, 0), ode({h: q, t: 1}, t <= T))
+    level = And(0 <= h, h <= H)
+    return Theorem("tank", And(level, H > 0, T > 0), loop(seq(control, plant), invariant=level), level,
+                   expected="proved", constants=(H, T))
+'''
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_a_safe_water_tank_runs_with_a_bound_of_minus_zero(tmp_path, seed):
+    # true: h rises at q >= 0 for t <= T, so it stays >= 0 and at most h + q*T <= H. A full
+    # tank gives the open inflow the bounds [0.0, -0.0], which hypothesis refused to draw from
+    (tmp_path / "tank.py").write_text(TANK)
+    out = tmp_path / "out.json"
+    code = main(["falsify", f"{tmp_path / 'tank.py'}:tank", "--max-examples", "300", "--seed", str(seed),
+                 "--database", "none", "-q", "--json", str(out)])
+    assert code == 0 and json.loads(out.read_text())["verdict"] == "no counterexample"
+
+
+def test_an_open_real_between_zero_and_minus_zero_is_zero():
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from certiloop.falsify.choosers import HypothesisChooser
+
+    seen = []
+
+    @settings(max_examples=5, database=None)
+    @given(st.data())
+    def draw(data):
+        chooser = HypothesisChooser(data)
+        seen.append((chooser.real_between("q", 0.0, -0.0), chooser.real_between("q", -0.0, 5e-324)))
+    draw()
+    assert seen and all(a == 0 and 0 <= b <= 5e-324 for a, b in seen)
+
+
+@pytest.mark.parametrize("name", ["ne", "ne_down", "product", "product_inner", "product_2d", "ne_and_bound",
+                                  "window", "narrow_window", "fast_window", "walls", "wall_loop"])
+def test_the_batch_phase_stops_every_flow_at_the_domains_edge(name):
+    # the claims above whose violations all lie beyond a domain's edge: a batch run that
+    # respects the domain along the whole flow never violates them, not even in floats
+    import numpy as np
+
+    from certiloop.falsify.batch import compiled
+
+    batch = compiled(entry(TRUE_CLAIMS[name]), 3).simulate(np.random.default_rng(0), 1024, 0)
+    assert batch.accepted.any() and not batch.candidates()
+
+
+def test_the_batch_phase_finds_the_run_before_a_window_it_cannot_sample():
+    # z = 50t reaches the window (9/10, 11/10) within one grid cell; the runs before it reach
+    # z in [1/2, 9/10], so `z < 1/2` is false
+    found = search("z = 0 -> [{z' = 50 & (z-1)^2 >= 1/100}] z < 1/2")
+    assert found.found and found.phase == "batch"
+    z = Fraction(found.run.final["z"])
+    assert Fraction(1, 2) <= z <= Fraction(9, 10)
