@@ -147,6 +147,9 @@ def exact_initial(theorem: Theorem, initial: dict[str, float], c: Compiler) -> d
     the assumptions exactly, so this can only make a replay possible, never forge one."""
     s: dict[str, Any] = {k: _exact(v) for k, v in initial.items()}
     for atom in conjuncts(theorem.assumptions):
+        if atom.op == "forall" and atom.args[-1].op == "cmp" and atom.args[-1].payload == "==":
+            _snap_cells_to_sphere(atom, s, c(atom))  # ∀j nx[j]^2 + ny[j]^2 + nz[j]^2 = 1
+            continue
         if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
             continue
         holds = c(atom)
@@ -181,6 +184,42 @@ def _snap_to_circle(atom, s: dict[str, Any], holds) -> None:
     s.update(point)
     if not holds(s):
         s.update(old)
+
+
+def _snap_cells_to_sphere(atom, s: dict[str, Any], holds) -> None:
+    """Each index's cells of the families the equation reads, as a point of a sphere with a
+    rational radius, moved to a rational point of it within rounding; kept only if the
+    equation then holds exactly."""
+    from certiloop.falsify.snap_circle import radius, sphere_point
+    from certiloop.models.lang.terms import free_vars
+
+    try:
+        if holds(s):
+            return
+    except (NeedValue, Blocked):
+        return
+    tables = [n for n in free_vars(atom) if isinstance(s.get(n), Table)]
+    if not tables:
+        return
+    keys = set.intersection(*(set(s[n].cells) for n in tables))
+    old = {n: s[n] for n in tables}
+    new = {n: dict(s[n].cells) for n in tables}
+    for key in sorted(keys):
+        values = [float(new[n][key]) for n in tables]
+        r = radius(values)
+        point = None if r is None else sphere_point(values, r)
+        if point is None or any(abs(x - v) > SNAP * (1 + abs(v)) for x, v in zip(point, values)):
+            continue
+        for n, x in zip(tables, point):
+            new[n][key] = x
+    for n in tables:
+        s[n] = Table(new[n], old[n].default)
+    try:
+        if holds(s):
+            return
+    except (NeedValue, Blocked):
+        pass
+    s.update(old)
 
 
 def _exact(v: Any) -> Any:

@@ -71,3 +71,26 @@ def _on_circle(expr, u, v, state: dict[str, Any], symbols) -> dict[str, Fraction
         return None
     m = Fraction(y / (x + float(r))).limit_denominator(DENOMINATOR)
     return {un: r * (1 - m * m) / (1 + m * m), vn: r * 2 * m / (1 + m * m)}
+
+
+def sphere_point(values: list[float], r: Fraction) -> list[Fraction] | None:
+    """A rational point of the sphere sum(x_i^2) = r^2 near `values`: stereographic
+    parameters from the pole on the far side of the first coordinate, each a rational with
+    a bounded denominator."""
+    x0, rest = values[0], values[1:]
+    side = 1 if x0 >= 0 else -1  # the pole (-side*r, 0, ...): far from the point
+    base = x0 * side + float(r)
+    if not base > 0 or not all(math.isfinite(v) for v in values):
+        return None
+    m = [Fraction(v / base).limit_denominator(DENOMINATOR) for v in rest]
+    total = sum(x * x for x in m)
+    return [side * r * (1 - total) / (1 + total), *(2 * r * x / (1 + total) for x in m)]
+
+
+def radius(values: list[float]) -> Fraction | None:
+    """r, a short rational, where the values' squares sum to r^2 within rounding."""
+    square = sum(v * v for v in values)
+    if not (math.isfinite(square) and square > 0):
+        return None
+    r = Fraction(math.sqrt(square)).limit_denominator(1000)
+    return r if abs(float(r * r) - square) <= 1e-9 * (1 + square) else None
