@@ -123,7 +123,8 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
         if exact_run.violated is not None:
             shown = run if run is not None and run.violated is not None else exact_run
             return shown, "replayed in exact rational arithmetic"
-        return None, ""  # the exact run ends without a violation
+        why = ("the exact replay of the same decisions ends without a violation (a test decided otherwise "
+               "than in floats)")
     except Inexact:  # a flow without a closed form: follow it by validated enclosures
         from certiloop.falsify.validated import confirm_enclosed
 

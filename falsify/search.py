@@ -54,6 +54,8 @@ from certiloop.models.lang.theorem import Theorem
 SHRINK_STEPS = 100  # successful shrinks hypothesis makes (its default, 500, or its clock-bound
 # 5 minutes, make CI wait); a count, not seconds: the same seed gives the same run
 EXACT = "replayed in exact rational arithmetic"
+NOT_IN_EXACT = ("the exact replay of the same decisions ends without a violation (a test decided otherwise "
+                "than in floats)")
 DEFAULT_DATABASE = Path(".certiloop") / "hypothesis"
 MAX_ENCLOSED = 8  # near misses replayed with enclosures while searching (each costs up to a second)
 ENCLOSE_ABOVE = 1e-2  # ... if deeper than this share of the float tolerance: shallower ones are
@@ -350,13 +352,15 @@ def confirm(theorem: Theorem, script, run: Run, opts: Options, enclose: bool = T
     unless `enclose` is False) by validated enclosures. "" if the exact replay rejects it (it
     blocks where the floats went on, e.g. at a domain's edge the float flow ran through, or
     it ends without a violation): no counterexample. A run the exact replay cannot decide
-    gets a check starting with FLOAT_ONLY that says why: a candidate, never a counterexample."""
+    gets a check starting with FLOAT_ONLY that says why: a candidate, never a counterexample;
+    so does one the exact replay follows to its end without a violation (a flow's end on an
+    equality test such as a ball's `h = 0`, at an irrational time, decided otherwise)."""
     exact = Interpreter(theorem, exact=True, max_steps=opts.max_steps, families=opts.families)
     why = ""
     try:
         if exact.run(Scripted(script)).violated is not None:
             return EXACT
-        return ""
+        why = NOT_IN_EXACT
     except Inexact:  # a flow without a closed form: follow it by validated enclosures
         from certiloop.falsify.validated import confirm_enclosed
 
