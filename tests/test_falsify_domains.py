@@ -223,3 +223,17 @@ def test_the_batch_phase_finds_the_run_before_a_window_it_cannot_sample():
     assert found.found and found.phase == "batch"
     z = Fraction(found.run.final["z"])
     assert Fraction(1, 2) <= z <= Fraction(9, 10)
+
+
+def test_the_gate_counts_only_confirmed_runs_against_a_proof():
+    from certiloop.proofs.cli.gate import GateEntry
+
+    def entry_with(expected, verdict, check):
+        return GateEntry("m", expected, expected, 0.1, [], falsify={"verdict": verdict, "check": check,
+                                                                   "violated": "x < 1"})
+    candidate = "floating point only: violated by 9 (not validated: why)"
+    assert not entry_with("proved", "unconfirmed candidate", candidate).problems
+    assert entry_with("proved", "refuted", "replayed in exact rational arithmetic").problems
+    # a model expected refuted: the prover's replayed run decides; a float candidate agrees
+    assert not entry_with("refuted", "unconfirmed candidate", candidate).problems
+    assert entry_with("refuted", "no counterexample", "").problems
