@@ -237,3 +237,14 @@ def test_the_gate_counts_only_confirmed_runs_against_a_proof():
     # a model expected refuted: the prover's replayed run decides; a float candidate agrees
     assert not entry_with("refuted", "unconfirmed candidate", candidate).problems
     assert entry_with("refuted", "no counterexample", "").problems
+
+
+def test_the_hypothesis_phase_gives_the_same_shrunk_counterexample_for_the_same_seed():
+    # without the batch phase: hypothesis's own search and shrinking (bounded by a count of
+    # steps, not seconds), then the exact shrinking of the numbers
+    claim = FALSE_CLAIMS["window"][0]
+    first, second = (search(claim, seed=3, batch_runs=0) for _ in range(2))
+    assert first.found and first.phase == "hypothesis"
+    assert first.script == second.script and first.run.final == second.run.final
+    final = {k: Fraction(v) for k, v in first.run.final.items() if isinstance(v, (int, float, Fraction))}
+    assert _reach_window(final), final
