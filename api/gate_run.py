@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Callable
 
 from certiloop.api.loading import Unsupported
-from certiloop.falsify.depth import FLOAT_ONLY
+from certiloop.falsify.depth import FLOAT_ONLY, UNCONFIRMED
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
 
@@ -72,7 +72,10 @@ class GateEntry:
                        f"{self.falsify.get('violated')}")
         if self.falsify.get("note"):  # e.g. unsatisfiable assumptions: a proof of nothing
             out.append(f"the falsifier could not start a single run: {self.falsify['note']}")
-        elif self.expected == "refuted" and self.falsify and not found and not self.falsify.get("skipped"):
+        # a model expected refuted: the prover's exactly replayed run decides it; the falsifier's
+        # run, confirmed or only a float candidate, corroborates it
+        elif self.expected == "refuted" and self.falsify and not self.falsify.get("skipped") \
+                and self.falsify.get("verdict") not in ("refuted", UNCONFIRMED):
             out.append(f"the falsifier found no violating run in {self.falsify.get('examples')} examples")
         if self.vacuous:
             out.append(f"vacuous: {self.vacuous}")

@@ -9,6 +9,7 @@ a script that replays the same run, e.g. in exact arithmetic.
 from __future__ import annotations
 
 import random
+import sys
 from typing import Any, Callable
 
 REAL_RANGE = 10.0  # nondeterministic reals are drawn from [-10, 10]: the models' scale
@@ -85,13 +86,28 @@ class HypothesisChooser(Chooser):
         return self._draw(self.st.integers(lo, hi))
 
     def real_between(self, what: str, lo: float, hi: float) -> float:
-        return self._draw(self.st.floats(lo, hi, allow_nan=False, allow_subnormal=False))
+        lo, hi = plain_bounds(lo, hi)
+        if lo == hi:  # one value: hypothesis refuses an interval [0.0, -0.0] (it orders -0.0 first)
+            return lo
+        subnormal = _subnormal(lo) or _subnormal(hi)  # hypothesis refuses a subnormal bound otherwise
+        return self._draw(self.st.floats(lo, hi, allow_nan=False, allow_infinity=False,
+                                         allow_subnormal=subnormal))
 
     def slack(self, strict: bool) -> float:
         return self._draw(self._strict_slack if strict else self._slack)
 
     def fraction(self) -> float:
         return self._draw(self._fraction)
+
+
+def plain_bounds(lo: float, hi: float) -> tuple[float, float]:
+    """[lo, hi] with -0.0 read as 0.0 (a bound -(h - H)/T at h = H is -0.0, and hypothesis
+    orders -0.0 below 0.0: [0.0, -0.0] would be empty to it)."""
+    return float(lo) + 0.0, float(hi) + 0.0
+
+
+def _subnormal(x: float) -> bool:
+    return x != 0 and abs(x) < sys.float_info.min
 
 
 class RandomChooser(Chooser):

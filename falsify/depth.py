@@ -10,6 +10,7 @@ from certiloop.falsify.interpreter import Run
 
 FLOAT_TOLERANCE = 1e-6  # relative: a float-only violation must be deeper than this
 FLOAT_ONLY = "floating point only"  # how a check starts that nothing exact or validated confirmed
+UNCONFIRMED = "unconfirmed candidate"  # the verdict of a run only floating point shows violating
 
 
 def _depth(run: Run) -> tuple[float, float]:

@@ -13,6 +13,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from certiloop.falsify.along import keeps_sign, sign_kept_parts, signed_domain, signs
 from certiloop.falsify.evaluate import Blocked, Compiler, margin
 from certiloop.falsify.vectorise import Unsupported, VCompiler
 from certiloop.models.lang.programs import ODE
@@ -64,7 +65,11 @@ class Flow:
         # the domain holds at the start in full; along the flow, the equalities it keeps by
         # itself need no watching (a lifted root's s*s = e, which rounding would break at once)
         along = conserved_apart(ode)[0]
-        self.domain = margin(along, compiler)
+        # `a != b` watched as "a - b keeps its starting sign": a grid samples it true on both
+        # sides of a = b, where every true run stops (`along.py`)
+        signed, pairs = signed_domain(along)
+        self._sign_pairs = [(name, compiler(d)) for name, d in pairs]
+        self.domain = margin(signed, compiler)
         self.domain_holds = compiler(ode.domain)
         self.along_holds = compiler(along)
         s, solution = flow_solution(ode)
@@ -193,6 +198,7 @@ class Flow:
         closures on the same values as `self.domain(self.at(state, tau))`, computing only the
         components of the closed form the domain reads (and no new dict per tau)."""
         env, out = dict(state), dict(state)
+        out.update(signs(self._sign_pairs, state))
         parts, domain, s_name = self._domain_parts, self.domain, self.s_name
 
         def g(tau: float) -> float:
@@ -205,6 +211,7 @@ class Flow:
     def _integrate(self, state, horizon: float):
         names, rhs = self.names, self.rhs
         work = dict(state)
+        work.update(signs(self._sign_pairs, state))
 
         def put(y):
             for name, value in zip(names, y):
@@ -261,8 +268,15 @@ class Flow:
         if tau < 0:
             raise Blocked("negative ODE duration")
         if self._along is None:
-            # the domain, and the right-hand side as written defined all along (x' = x/x)
-            self._along = runs_along(self.ode, self.symbolic, Var("tau@flow"), Var(self.s_name))
+            # the domain, and the right-hand side as written defined all along (x' = x/x);
+            # `a != b` as "a - b keeps one sign" (`along.py`), which is decided exactly
+            ode, parts = self.ode, sign_kept_parts(self.ode.domain)
+            if parts:
+                ode = ODE(ode.eqs, parts[0])
+            along = runs_along(ode, self.symbolic, Var("tau@flow"), Var(self.s_name))
+            for difference in parts[1:]:
+                along = And(along, keeps_sign(difference, self.symbolic, Var("tau@flow"), Var(self.s_name)))
+            self._along = along
         env = exact_view(state)
         env["tau@flow"] = tau
         if truth(self._along, env) is not True:
@@ -401,7 +415,9 @@ class _VectorFlow:
             _plain(x)
         self.s_name = flow.s_name
         self.solution = {n: vc(x) for n, x in flow.symbolic.items()}
-        self.domain = vc.margin(flow.ode.domain)
+        signed, pairs = signed_domain(flow.ode.domain)  # as the scalar margin watches it
+        self.domain = vc.margin(signed)
+        self.sign_pairs = [(name, vc(d)) for name, d in pairs]
         reads: dict[str, None] = {}
         for x in (flow.ode.domain, *flow.symbolic.values()):
             reads.update(dict.fromkeys(free_vars(x)))
@@ -416,6 +432,8 @@ class _VectorFlow:
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 return None
             out[name] = float(value)
+        with np.errstate(all="ignore"):
+            out.update({k: float(v) for k, v in signs(self.sign_pairs, out).items()})
         return out
 
     def values(self, env: dict[str, float], times: np.ndarray) -> dict[str, np.ndarray] | None:

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+from fractions import Fraction
 from typing import Any
 
 from rich.console import Console
 from rich.markup import escape
 
 from certiloop.cli import ui
-from certiloop.falsify.search import Falsification
+from certiloop.falsify.search import UNCONFIRMED, Falsification
 
 
 def show_falsification(console: Console, result: Falsification, level: int = ui.NORMAL) -> None:
@@ -22,15 +23,27 @@ def show_falsification(console: Console, result: Falsification, level: int = ui.
         console.print(f"[bold]{name}[/]: [yellow]no run[/]: {escape(result.note)} ({result.seconds:.2f} s)",
                       highlight=False)
         return
+    if result.candidate:
+        console.print(f"[bold]{name}[/]: [yellow]{UNCONFIRMED}[/] (not a counterexample) after "
+                      f"{result.examples} examples ({result.seconds:.2f} s): {escape(result.check)}",
+                      highlight=False)
+        if level > ui.QUIET:
+            _show_run(console, result, level)
+        return
     if not result.found:
         if level > ui.QUIET:
             console.print(f"[bold]{name}[/]: [green]no counterexample[/] in {result.examples} examples "
                           f"({result.seconds:.2f} s)", highlight=False)
         return
+    console.print(f"[bold]{name}[/]: [red]counterexample[/] after {result.examples} examples "
+                  f"({result.seconds:.2f} s); re-checked: {escape(result.check)}"
+                  f"{'; numbers shrunk' if result.shrunk else ''}", highlight=False)
+    _show_run(console, result, level)
+
+
+def _show_run(console: Console, result: Falsification, level: int) -> None:
     run = result.run
     last = run.checkpoints[-1]
-    console.print(f"[bold]{name}[/]: [red]counterexample[/] after {result.examples} examples "
-                  f"({result.seconds:.2f} s); re-checked: {escape(result.check)}", highlight=False)
     ui.say(console, f"  violated after control step {last.step} (t = {last.time:.6g}): {run.violated}")
     previous: dict[str, Any] = {}
     for c in run.checkpoints:
@@ -51,4 +64,6 @@ def _show(v: Any) -> str:
         return "[" + ", ".join(f"{k}: {_show(x)}" for k, x in v.items()) + "]"
     if isinstance(v, float):
         return f"{v:.6g}"
+    if isinstance(v, Fraction):
+        return str(v) if len(str(v)) <= 12 else f"{float(v):.6g}"
     return str(v)

@@ -11,12 +11,16 @@ search steers towards small guarantee margins (`hypothesis.target`), shrinks a v
 run to a short one with round values, and keeps its example database in the project
 folder so a failure found once is tried first the next time.
 
-A violation is reported only after it was re-checked: replayed decision by decision in
-exact rational arithmetic; through ODEs without a closed form, with validated interval
-enclosures of their flows (`validated.py`); where neither works (irrational unit normals,
-a flow that cannot be enclosed) only if the guarantee is violated by more than a tolerance
-far above floating-point error, and the check then says "floating point only (not
-validated: why)".
+A violation is reported (verdict "refuted") only after it was re-checked: replayed decision
+by decision in exact rational arithmetic, or through ODEs without a closed form with
+validated interval enclosures of their flows (`validated.py`). A run the exact replay
+rejects is no counterexample and the search goes on. Where neither check can decide
+(irrational unit normals, a flow that cannot be enclosed) a violation deeper than a tolerance
+far above floating-point error is kept as an "unconfirmed candidate" whose check says
+"floating point only (not validated: why)"; it is reported only if nothing confirmed turns
+up, and never as a counterexample. A confirmed run's numbers are then shrunk to short
+rationals the exact replay still confirms (`shrink.py`); shrinking is bounded by counts, not
+the clock, so the same seed gives the same counterexample.
 """
 
 from __future__ import annotations
@@ -32,7 +36,14 @@ from typing import Any
 
 from certiloop.falsify.choosers import Diverged, HypothesisChooser, Recording, Scripted
 from certiloop.falsify.constant_pool import pinned_constants
-from certiloop.falsify.depth import FLOAT_ONLY, FLOAT_TOLERANCE, _deep, _depth, float_only  # noqa: F401
+from certiloop.falsify.depth import (  # noqa: F401
+    FLOAT_ONLY,
+    FLOAT_TOLERANCE,
+    UNCONFIRMED,
+    _deep,
+    _depth,
+    float_only,
+)
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
@@ -40,8 +51,11 @@ from certiloop.models.lang.programs import Program, Test, children
 from certiloop.models.lang.terms import MODALITIES, Node
 from certiloop.models.lang.theorem import Theorem
 
-SHRINK_SECONDS = 15  # hypothesis shrinks for up to 5 minutes by default; a trace this
-# short is readable, and CI must not wait minutes for a smaller one
+SHRINK_STEPS = 100  # successful shrinks hypothesis makes (its default, 500, or its clock-bound
+# 5 minutes, make CI wait); a count, not seconds: the same seed gives the same run
+EXACT = "replayed in exact rational arithmetic"
+NOT_IN_EXACT = ("the exact replay of the same decisions ends without a violation (a test decided otherwise "
+                "than in floats)")
 DEFAULT_DATABASE = Path(".certiloop") / "hypothesis"
 MAX_ENCLOSED = 8  # near misses replayed with enclosures while searching (each costs up to a second)
 ENCLOSE_ABOVE = 1e-2  # ... if deeper than this share of the float tolerance: shallower ones are
@@ -79,14 +93,23 @@ class Falsification:
     phase: str = "hypothesis"  # which search found the run: "batch" or "hypothesis"
     initial: dict[str, Any] | None = None  # a batch run's initial state (its script starts after it)
     skipped: str = ""  # why no search was made: the claim has a modality the runs cannot evaluate
+    shrunk: bool = False  # its numbers were shortened (each kept only if the exact replay confirms)
+
+    @property
+    def candidate(self) -> bool:
+        """A run only floating point shows violating (`check` says why no exact or validated
+        replay confirmed it): reported, never as a counterexample."""
+        return not self.found and self.run is not None
 
     @property
     def verdict(self) -> str:
-        return "refuted" if self.found else "not run" if self.skipped else "no counterexample"
+        if self.found:
+            return "refuted"
+        return "not run" if self.skipped else UNCONFIRMED if self.candidate else "no counterexample"
 
     @property
     def validated(self) -> bool:
-        """The run was re-checked exactly or by interval enclosures, not in floats only."""
+        """The run was re-checked exactly or by interval enclosures (every `found` run is)."""
         return self.found and not self.check.startswith(FLOAT_ONLY)
 
     def to_json(self) -> dict[str, Any]:
@@ -97,9 +120,15 @@ class Falsification:
         if self.run is not None:
             out["counterexample"] = {"trace": [c.to_json() for c in self.run.checkpoints],
                                      "violated": self.run.violated, "check": self.check,
-                                     "validated": self.validated,
-                                     "steps": self.run.checkpoints[-1].step}
+                                     "validated": self.validated, "confirmed": self.found,
+                                     "shrunk": self.shrunk, "steps": self.run.checkpoints[-1].step,
+                                     # the run's decisions as replayed (exact: "1/10"), in order
+                                     "decisions": [[kind, _text(v)] for kind, v in self.script]}
         return out
+
+
+def _text(v: Any) -> Any:
+    return v if isinstance(v, (bool, int)) else str(v)
 
 
 def _modal(f: Node) -> bool:
@@ -138,7 +167,7 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     from hypothesis import seed as fixed_seed
     from hypothesis import strategies as st
     from hypothesis.database import DirectoryBasedExampleDatabase
-    from hypothesis.errors import Unsatisfiable
+    from hypothesis.errors import Flaky, Unsatisfiable
 
     opts = options or Options()
     if _modal(theorem.assumptions) or _modal(theorem.guarantee) or _modal_tests(theorem.program):
@@ -146,14 +175,20 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
                              "guarantee or a test: a run cannot evaluate it (the proof stands alone)")
     start = time.perf_counter()
     batched = 0
+    candidate: Falsification | None = None  # the first run only floating point shows violating
     if opts.batch_runs > 0:  # many seeded runs at once; a hit is reported only once replayed
         from certiloop.falsify.batch.phase import batch_search
 
         first = {} if opts.batch_first is None else {"first": opts.batch_first}
         outcome = batch_search(theorem, opts.batch_runs, opts.seed, opts.max_steps, opts.families, **first)
         if outcome.run is not None:
-            return Falsification(theorem.name, True, outcome.runs, time.perf_counter() - start, outcome.run,
-                                 outcome.check, outcome.script or [], phase="batch", initial=outcome.initial)
+            found = Falsification(theorem.name, True, outcome.runs, 0.0, outcome.run, outcome.check,
+                                  outcome.script or [], phase="batch", initial=outcome.initial)
+            return _finish(theorem, opts, found, start)
+        if outcome.candidate is not None:
+            run, check, script, initial, runs = outcome.candidate
+            candidate = Falsification(theorem.name, False, runs, 0.0, run, check, script, phase="batch",
+                                      initial=initial)
         batched = outcome.runs
     examples = opts.max_examples
     if batched and opts.after_batch_examples is not None:
@@ -161,6 +196,8 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     interp = Interpreter(theorem, max_steps=opts.max_steps, families=opts.families)
     count = {"examples": 0, "first": 0, "near": 0}
     blocked: Counter[str] = Counter()  # why runs were rejected, for the note when all were
+    confirmed: list[_Found] = []  # the first run the exact (or validated) replay confirmed
+    floats: list[_Found] = []  # the first run only floating point shows violating
 
     def one_run(data) -> None:
         count["examples"] += 1
@@ -173,19 +210,28 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
         worst = run.worst
         if math.isfinite(worst):
             target(max(-1e6, min(1e6, -worst)), label="smallest guarantee margin")
-        if run.violated is not None:
-            # a violation far beyond rounding needs no exact replay while hypothesis shrinks;
-            # the reported run is replayed exactly once at the end
-            worst, tolerance = _depth(run)
-            if worst < -tolerance:
-                check = "deep"
-            else:
-                enclose = count["near"] < MAX_ENCLOSED and -worst > ENCLOSE_ABOVE * tolerance
-                count["near"] += enclose
-                check = confirm(theorem, chooser.script, run, opts, enclose=enclose)
-            if check:
-                count["first"] = count["first"] or count["examples"]
-                raise _Found(run, check, chooser.script)
+        if run.violated is None:
+            return
+        worst, tolerance = _depth(run)
+        if confirmed and worst < -tolerance:
+            # shrinking a confirmed run: a violation far beyond rounding needs no replay on
+            # each step; the shrunk run is replayed once at the end (else the first one stands)
+            raise _Found(run, "deep", chooser.script)
+        # enclosures (up to a second each) for the first few violations beyond rounding only
+        enclose = count["near"] < MAX_ENCLOSED and -worst > ENCLOSE_ABOVE * tolerance
+        count["near"] += enclose
+        check = confirm(theorem, chooser.script, run, opts, enclose=enclose)
+        if not check:
+            return  # the exact replay rejects the run: no counterexample, not even a candidate
+        if check.startswith(FLOAT_ONLY):
+            if not floats:
+                floats.append(_Found(run, check, chooser.script))
+                count["candidate"] = count["examples"]
+            return  # reported only if nothing confirmed turns up
+        if not confirmed:
+            confirmed.append(_Found(run, check, chooser.script))
+            count["first"] = count["examples"]
+        raise _Found(run, check, chooser.script)
 
     db = DirectoryBasedExampleDatabase(str(opts.database)) if opts.database else None
     phases = list(Phase) if opts.shrink else [p for p in Phase if p != Phase.shrink]
@@ -199,34 +245,91 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     test._hypothesis_internal_database_key = hashlib.sha256(  # one database entry per model
         f"{theorem.content_hash}/{opts.digest()}".encode()).digest()
     try:
-        with _shrink_budget(SHRINK_SECONDS), pinned_constants(_literals(theorem)):
+        with _shrink_budget(SHRINK_STEPS), pinned_constants(_literals(theorem)):
             test()
     except _Found as found:
         check = found.check if found.check != "deep" else confirm(theorem, found.script, found.run, opts)
-        return Falsification(theorem.name, True, batched + count["first"], time.perf_counter() - start,
-                             found.run, check, found.script)
+        if not check or check.startswith(FLOAT_ONLY):  # the shrunk run did not replay: the first did
+            found = confirmed[0]
+            check = found.check
+        result = Falsification(theorem.name, True, batched + count["first"], 0.0, found.run, check,
+                               found.script)
+        return _finish(theorem, opts, result, start)
     except Unsatisfiable:  # every draw was rejected: nothing was run, which is not a pass
-        return Falsification(theorem.name, False, 0, time.perf_counter() - start,
-                             note=f"no run reached the end in {count['examples']} tries: "
-                             f"{_blocked_note(blocked)}")
+        if candidate is None:
+            return Falsification(theorem.name, False, 0, time.perf_counter() - start,
+                                 note=f"no run reached the end in {count['examples']} tries: "
+                                 f"{_blocked_note(blocked)}")
+    except Flaky:  # a step of the shrinking decided differently from before: the first run stands
+        if confirmed:
+            found = confirmed[0]
+            result = Falsification(theorem.name, True, batched + count["first"], 0.0, found.run, found.check,
+                                   found.script)
+            return _finish(theorem, opts, result, start)
+    if candidate is None and floats:
+        f = floats[0]
+        candidate = Falsification(theorem.name, False, batched + count["candidate"], 0.0, f.run, f.check,
+                                  f.script)
+    if candidate is not None:
+        candidate.seconds = time.perf_counter() - start
+        return candidate
     return Falsification(theorem.name, False, batched + count["examples"], time.perf_counter() - start)
 
 
+def _finish(theorem: Theorem, opts: Options, found: Falsification, start: float) -> Falsification:
+    """A confirmed run with its numbers shrunk to short rationals (each kept only if the exact
+    replay still confirms the run), and the search's time."""
+    if opts.shrink and found.check == EXACT:
+        found = shrunk(theorem, opts, found)
+    found.seconds = time.perf_counter() - start
+    return found
+
+
+def shrunk(theorem: Theorem, opts: Options, found: Falsification) -> Falsification:
+    from certiloop.falsify.batch.phase import exact_initial
+    from certiloop.falsify.shrink import shrink
+
+    exact = Interpreter(theorem, exact=True, max_steps=opts.max_steps, families=opts.families)
+    last: dict[str, Any] = {}
+
+    def confirms(script, initial) -> bool:
+        try:
+            start = None if initial is None else exact_initial(theorem, initial, exact.c)
+            run = exact.run(Scripted(script), start)
+        except (Diverged, Rejected, Blocked, Inexact, ArithmeticError):
+            return False
+        if run.violated is None:
+            return False
+        last["run"] = run
+        return True
+
+    script, initial = shrink(found.script, found.initial, confirms)
+    if not confirms(script, initial):  # cannot be (each value was kept only if it confirmed)
+        return found
+    # the run shown is the exact replay's: its states are the rationals the replay confirmed
+    return Falsification(found.model, True, found.examples, found.seconds, last["run"], EXACT, script,
+                         phase=found.phase, initial=initial,
+                         shrunk=script != found.script or initial != found.initial)
+
+
 @contextmanager
-def _shrink_budget(seconds: float):
-    """Bound hypothesis's shrinking time. Hypothesis has no public setting for it; its
-    engine reads this module constant when shrinking starts. Without it (another
-    hypothesis version) shrinking just takes its default time."""
+def _shrink_budget(steps: int):
+    """Bound hypothesis's shrinking by a count of shrinks, not by the clock (a verdict or a
+    counterexample must not depend on the machine's speed). Hypothesis has no public setting
+    for it; its engine reads these module constants when shrinking starts. Without them
+    (another hypothesis version) shrinking just takes its default budget."""
     from hypothesis.internal.conjecture import engine
 
-    old = getattr(engine, "MAX_SHRINKING_SECONDS", None)
-    if old is not None:
-        engine.MAX_SHRINKING_SECONDS = seconds
+    saved = {k: getattr(engine, k) for k in ("MAX_SHRINKS", "MAX_SHRINKING_SECONDS") if hasattr(engine, k)}
+    if "MAX_SHRINKS" in saved:
+        engine.MAX_SHRINKS = steps
+        if "MAX_SHRINKING_SECONDS" in saved:
+            engine.MAX_SHRINKING_SECONDS = 10**9  # the count decides
     try:
         yield
     finally:
-        if old is not None:
-            engine.MAX_SHRINKING_SECONDS = old
+        for k, v in saved.items():
+            setattr(engine, k, v)
 
 
 def _literals(theorem: Theorem) -> set:
@@ -245,14 +348,19 @@ def _literals(theorem: Theorem) -> set:
 
 
 def confirm(theorem: Theorem, script, run: Run, opts: Options, enclose: bool = True) -> str:
-    """How a violating float run was re-checked, or "" if it could not be: exactly, else
-    (flows without a closed form, unless `enclose` is False) by validated enclosures, else
-    in floating point beyond a tolerance, which the message says is not validated."""
+    """How a violating float run was re-checked: exactly, else (flows without a closed form,
+    unless `enclose` is False) by validated enclosures. "" if the exact replay rejects it (it
+    blocks where the floats went on, e.g. at a domain's edge the float flow ran through, or
+    it ends without a violation): no counterexample. A run the exact replay cannot decide
+    gets a check starting with FLOAT_ONLY that says why: a candidate, never a counterexample;
+    so does one the exact replay follows to its end without a violation (a flow's end on an
+    equality test such as a ball's `h = 0`, at an irrational time, decided otherwise)."""
     exact = Interpreter(theorem, exact=True, max_steps=opts.max_steps, families=opts.families)
     why = ""
     try:
         if exact.run(Scripted(script)).violated is not None:
-            return "replayed in exact rational arithmetic"
+            return EXACT
+        why = NOT_IN_EXACT
     except Inexact:  # a flow without a closed form: follow it by validated enclosures
         from certiloop.falsify.validated import confirm_enclosed
 
@@ -260,8 +368,8 @@ def confirm(theorem: Theorem, script, run: Run, opts: Options, enclose: bool = T
                           if enclose else ("", "enclosures not tried"))
         if validated:
             return validated
-    except (Diverged, Rejected, Blocked, ZeroDivisionError, OverflowError):
-        pass
+    except (Blocked, Rejected, Diverged):  # blocks or turns where the floats went on (e.g. at a
+        return ""  # domain's edge), or the start misses the assumptions: not a run
+    except (ZeroDivisionError, OverflowError) as exc:
+        why = f"the exact replay failed: {type(exc).__name__}"
     return float_only(run, why)
-
-

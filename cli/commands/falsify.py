@@ -123,10 +123,12 @@ def run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt:
         options.write_json(args.json, options.json_payload(docs, len(theorems)))
         raise
-    found = sum(r.found for r in results)
+    found = sum(r.found for r in results)  # confirmed runs only: a float-only candidate is not one
     missing = f", {len(unsupported)} not supported" if unsupported else ""
+    candidates = sum(r.candidate for r in results)
+    unconfirmed = f", {candidates} with an unconfirmed candidate only" if candidates else ""
     ui.say(out, f"{found} of {len(theorems)} model{'s' * (len(theorems) != 1)} with a violating run"
-                f"{missing} ({time.perf_counter() - start:.1f} s)")
+                f"{unconfirmed}{missing} ({time.perf_counter() - start:.1f} s)")
     options.write_json(args.json, options.json_payload(docs, len(theorems)))
     options.name_unsupported(unsupported)
     return EXIT_BAD_INPUT if unsupported else EXIT_FAILED if found else EXIT_OK

@@ -5,12 +5,13 @@ vectorised batches whose decisions come from numpy's generator seeded with the s
 seed (the same verdict for the same seed). A violating run of a batch is a candidate only:
 the tree-walking interpreter replays its initial state and decisions, in exact rational
 arithmetic where the flows have closed forms, else with validated enclosures of the flows
-(`validated.py`), else in floating point (so named) with a violation deeper than the
-search's tolerance — the check every reported counterexample passes. A
-candidate that does not replay is dropped. A model with families runs each round's runs
-split over the family sizes of the search's range, one batch per size (`_split`); a
-Hoare triple over integers (`batch_ints.py`) splits them the same way over group slots,
-each batch with integer constants of its own.
+(`validated.py`) — the check every reported counterexample passes. A candidate the exact
+replay rejects (it blocks where the floats went on, or ends without a violation) is dropped;
+one only floating point shows violating, deeper than the search's tolerance, is kept as an
+unconfirmed candidate (so reported, never as a counterexample) while the search goes on.
+A model with families runs each round's runs split over the family sizes of the search's
+range, one batch per size (`_split`); a Hoare triple over integers (`batch_ints.py`) splits
+them the same way over group slots, each batch with integer constants of its own.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ import numpy as np
 
 from certiloop.falsify.batch.program import compiled
 from certiloop.falsify.choosers import Diverged, Scripted
-from certiloop.falsify.depth import _deep, float_only
+from certiloop.falsify.depth import FLOAT_ONLY, _deep, float_only
 from certiloop.falsify.evaluate import Blocked, Compiler, NeedValue, Table
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
@@ -36,6 +37,7 @@ FIRST_BATCH = 256  # ... but an easy counterexample needs no 4,096 runs: 256, 1,
 CONFIRMS_PER_BATCH = 16  # candidates replayed per batch (deepest first)
 SNAP = 1e-9  # relative: how far rounding may have moved a value an equation pins down
 MAX_CONFIRMS = 32  # replays in all: float-only near misses of a safe model stay cheap
+AFTER_CANDIDATE = 4  # replays left once a run only floating point shows violating was kept
 
 
 @dataclass
@@ -47,6 +49,8 @@ class BatchOutcome:
     initial: dict[str, Any] | None = None
     script: list[tuple[str, Any]] | None = None
     unsupported: str = ""  # why the model has no batch phase
+    # the first run only floating point shows violating: (run, check, script, initial, runs drawn)
+    candidate: tuple | None = None
 
 
 def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
@@ -61,6 +65,7 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
     rng = np.random.default_rng(seed)
     sizes = program.sizes(families)
     drawn = started = confirms = 0
+    candidate = None
     size = max(1, first)
     while drawn < runs:
         size = min(size, runs - drawn)
@@ -73,11 +78,15 @@ def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
                 confirms += 1
                 initial, script = batch.initial_state(r), batch.script(r)
                 run, check = confirm_candidate(theorem, initial, script, max_steps, families)
-                if check:
+                if check.startswith(FLOAT_ONLY):  # kept, in case nothing confirmed turns up
+                    candidate = candidate or (run, check, script, initial, drawn + r + 1)
+                    # the next few replays only: float-only runs of one model tend to be alike
+                    confirms = max(confirms, MAX_CONFIRMS - AFTER_CANDIDATE)
+                elif check:
                     return BatchOutcome(drawn + r + 1, started, run, check, initial, script)
             drawn += count
         size = _grow(size, len(sizes))
-    return BatchOutcome(drawn, started)
+    return BatchOutcome(drawn, started, candidate=candidate)
 
 
 def _grow(size: int, sizes: int) -> int:
@@ -114,6 +123,8 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
         if exact_run.violated is not None:
             shown = run if run is not None and run.violated is not None else exact_run
             return shown, "replayed in exact rational arithmetic"
+        why = ("the exact replay of the same decisions ends without a violation (a test decided otherwise "
+               "than in floats)")
     except Inexact:  # a flow without a closed form: follow it by validated enclosures
         from certiloop.falsify.validated import confirm_enclosed
 
@@ -121,8 +132,10 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
         validated, why = confirm_enclosed(theorem, script, max_steps, families, start, retreat=deep)
         if validated and run is not None and run.violated is not None:
             return run, validated
-    except failures:
-        pass
+    except (Blocked, Rejected, Diverged):  # blocks or turns where the floats went on (e.g. at a
+        return None, ""  # domain's edge), or the start misses the assumptions: not a run
+    except ArithmeticError as exc:
+        why = f"the exact replay failed: {type(exc).__name__}"
     if run is not None and run.violated is not None and _deep(run):
         return run, float_only(run, why)
     return None, ""
@@ -135,6 +148,9 @@ def exact_initial(theorem: Theorem, initial: dict[str, float], c: Compiler) -> d
     the assumptions exactly, so this can only make a replay possible, never forge one."""
     s: dict[str, Any] = {k: _exact(v) for k, v in initial.items()}
     for atom in conjuncts(theorem.assumptions):
+        if atom.op == "forall" and atom.args[-1].op == "cmp" and atom.args[-1].payload == "==":
+            _snap_cells_to_sphere(atom, s, c(atom))  # ∀j nx[j]^2 + ny[j]^2 + nz[j]^2 = 1
+            continue
         if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
             continue
         holds = c(atom)
@@ -154,7 +170,57 @@ def exact_initial(theorem: Theorem, initial: dict[str, float], c: Compiler) -> d
             if holds(s):
                 break
             s[name] = old
+        else:  # no value solves it linearly: a circle u^2 + v^2 = r^2 has dense rational points
+            _snap_to_circle(atom, s, holds)
     return s
+
+
+def _snap_to_circle(atom, s: dict[str, Any], holds) -> None:
+    from certiloop.falsify.snap_circle import circle_point
+
+    point = circle_point(atom, s, [n for n in read_order(atom) if n in s])
+    if point is None or any(abs(x - s[n]) > SNAP * (1 + abs(s[n])) for n, x in point.items()):
+        return
+    old = {n: s[n] for n in point}
+    s.update(point)
+    if not holds(s):
+        s.update(old)
+
+
+def _snap_cells_to_sphere(atom, s: dict[str, Any], holds) -> None:
+    """Each index's cells of the families the equation reads, as a point of a sphere with a
+    rational radius, moved to a rational point of it within rounding; kept only if the
+    equation then holds exactly."""
+    from certiloop.falsify.snap_circle import radius, sphere_point
+    from certiloop.models.lang.terms import free_vars
+
+    try:
+        if holds(s):
+            return
+    except (NeedValue, Blocked):
+        return
+    tables = [n for n in free_vars(atom) if isinstance(s.get(n), Table)]
+    if not tables:
+        return
+    keys = set.intersection(*(set(s[n].cells) for n in tables))
+    old = {n: s[n] for n in tables}
+    new = {n: dict(s[n].cells) for n in tables}
+    for key in sorted(keys):
+        values = [float(new[n][key]) for n in tables]
+        r = radius(values)
+        point = None if r is None else sphere_point(values, r)
+        if point is None or any(abs(x - v) > SNAP * (1 + abs(v)) for x, v in zip(point, values)):
+            continue
+        for n, x in zip(tables, point):
+            new[n][key] = x
+    for n in tables:
+        s[n] = Table(new[n], old[n].default)
+    try:
+        if holds(s):
+            return
+    except (NeedValue, Blocked):
+        pass
+    s.update(old)
 
 
 def _exact(v: Any) -> Any:

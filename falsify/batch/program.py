@@ -26,6 +26,7 @@ log.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, field
 from functools import partial
@@ -33,6 +34,7 @@ from typing import Any
 
 import numpy as np
 
+from certiloop.falsify.along import signed_domain, signs
 from certiloop.falsify.batch.ints import IntBatchProgram, has_ints
 from certiloop.falsify.batch.open_values import OpenValues, runs, solve_affine
 from certiloop.falsify.batch.state import Bind, State
@@ -71,6 +73,9 @@ BISECTIONS = 30  # to 1e-9 of a grid cell, from inside; the result is then moved
 RK4_TOLERANCE = 1e-6  # step doubling: a flow without closed form is followed while RK4 agrees
 ESCAPE = 1e9  # as flows.ESCAPE
 REPAIR_PASSES = 3  # as initial.REPAIR_PASSES
+DIPS = 3  # sampled local minima of a domain's margin searched for a dip below 0, per run
+GOLDEN_STEPS = 40  # golden-section steps: the cell shrinks by 0.618^40 (~4e-9)
+GOLDEN = (math.sqrt(5) - 1) / 2
 
 
 @dataclass
@@ -128,7 +133,10 @@ class _Flow:
         self.rhs = [vc(f) for f in self.rhs_nodes]
         self.domain = ode.domain
         self.domain_truth = vc(ode.domain)
-        self.domain_margin = vc.margin(conserved_apart(ode)[0])  # along the flow (flows.py)
+        # along the flow (flows.py), `a != b` as "a - b keeps its starting sign" (along.py)
+        signed, pairs = signed_domain(conserved_apart(ode)[0])
+        self.domain_margin = vc.margin(signed)
+        self.sign_pairs = [(name, vc(d)) for name, d in pairs]
         s, solution = flow_solution(ode)
         self.s_name = s.payload
         self.solution = None if solution is None else {n: vc(x) for n, x in solution.items()}
@@ -174,7 +182,9 @@ class _Flow:
 
     def _margin_at(self, S: State, times: np.ndarray) -> np.ndarray:
         grid = times.ndim == 2
-        env = {k: (v[:, None] if grid else v) for k, v in S.vals.items()}
+        with np.errstate(all="ignore"):
+            start = {**S.vals, **signs(self.sign_pairs, S.vals)}
+        env = {k: (v[:, None] if grid else v) for k, v in start.items()}
         traj = self.states(S, times)
         env.update(traj)
         m = np.broadcast_to(self.domain_margin(env), times.shape).astype(float)
@@ -201,6 +211,8 @@ class _Flow:
         for level in range(depth + 1):
             ts = hi[:, None] * grid[None, 1:]
             g = self._margin_at(S, ts)
+            if closed:  # a window the flow passes between two samples (z' = 50, (z-1)^2 >= 1/100)
+                self._dips(S, ts, g, g0)
             neg = g < 0 if closed else g <= 0
             hit = neg.any(axis=1)
             k = neg.argmax(axis=1)
@@ -218,6 +230,41 @@ class _Flow:
             if not pending.any():
                 break
         return out
+
+    def _dips(self, S: State, ts: np.ndarray, g: np.ndarray, g0: np.ndarray) -> None:
+        """Where the sampled margin has a positive local minimum, the least margin near it
+        (golden-section search between its neighbours); a negative one replaces the sample
+        (its time and margin), so the flow leaves the domain there, not beyond."""
+        n = g.shape[0]
+        at = np.arange(n)
+        times = np.concatenate([np.zeros((n, 1)), ts], axis=1)
+        full = np.concatenate([g0[:, None], g], axis=1)
+        wall = np.full((n, 1), np.inf)  # the ends count as minima when the margin rises away from them
+        left = np.concatenate([wall, full[:, :-1]], axis=1)
+        right = np.concatenate([full[:, 1:], wall], axis=1)
+        local = (full > 0) & (full <= left) & (full <= right) & np.isfinite(full)
+        local &= np.cumsum(full < 0, axis=1) == 0  # only dips before any sampled exit
+        last = full.shape[1] - 1
+        for _ in range(DIPS):
+            has = local.any(axis=1)
+            if not has.any():
+                return
+            k = local.argmax(axis=1)  # index in `full`
+            local[at[has], k[has]] = False
+            lo, hi = times[at, np.maximum(k - 1, 0)].copy(), times[at, np.minimum(k + 1, last)].copy()
+            for _ in range(GOLDEN_STEPS):
+                a, b = hi - GOLDEN * (hi - lo), lo + GOLDEN * (hi - lo)
+                left = self._margin_at(S, a) < self._margin_at(S, b)
+                hi, lo = np.where(left, b, hi), np.where(left, lo, a)
+            t = (lo + hi) / 2
+            m = self._margin_at(S, t)
+            dip = has & (m < 0)
+            if dip.any():  # the sample after the dip's start becomes the dip (t0 = 0 is not a sample of g)
+                rows = at[dip]
+                cols = np.maximum(k[dip] - 1, 0) + (times[rows, np.maximum(k[dip], 1)] < t[dip])
+                cols = np.minimum(cols, g.shape[1] - 1)
+                ts[rows, cols], g[rows, cols] = t[dip], m[dip]
+                local[rows] = False
 
     def _root(self, S: State, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         if self.solution is None:

@@ -128,8 +128,9 @@ def cmd_check_path(args, out) -> int:
             continue
         try:
             result = check_run(run, SCENES)
-        except (ValueError, KeyError, TypeError, ZeroDivisionError) as exc:
-            raise PlanInputError(f"{args.file}: run {i}: malformed certificate ({exc})") from None
+        except (ValueError, KeyError, IndexError, TypeError, ZeroDivisionError) as exc:
+            raise PlanInputError(f"{args.file}: run {i}: malformed certificate ({exc}); re-create the file "
+                                 "with `certiloop plan --json`") from None
         checked += 1
         pieces += result.pieces
         if not result.ok:

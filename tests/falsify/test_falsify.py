@@ -118,9 +118,19 @@ def test_initial_states_satisfy_the_assumptions_or_are_rejected():
 # ------------------------------------------------------------------ search
 
 
+# a violating run needs an irrational flow time (the ball lands at t = sqrt(2h/g), where
+# `h = 0` must hold exactly to bounce): no exact replay can take it, so falsify can only
+# report it as an unconfirmed candidate (the prover refutes it)
+FLOAT_ONLY_RUNS = {"textbook.bouncing_ball_superelastic"}
+
+
 @pytest.mark.parametrize("name", REFUTED)
 def test_every_refuted_model_is_falsified(name):
     result = _search(name, max_examples=2000)
+    if name in FLOAT_ONLY_RUNS:
+        assert not result.found and result.verdict == "unconfirmed candidate", result.check
+        assert "not validated" in result.check
+        return
     assert result.found, f"{name}: no counterexample in {result.examples} examples"
     assert result.check, "a reported counterexample must have been re-checked"
     assert result.run.checkpoints[-1].margins and min(result.run.checkpoints[-1].margins.values()) < 0

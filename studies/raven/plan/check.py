@@ -137,7 +137,11 @@ def check_run(run: dict, library_scenes: dict | None = None) -> CheckResult:
                                         f"{len(waypoints) - 1}")
     counter = [0]
     for i, seg in enumerate(segments):
-        points = [Fraction(p) for p in seg["pieces"]]
+        pieces = seg.get("pieces") if isinstance(seg, dict) else None
+        if not isinstance(pieces, list) or len(pieces) < 2:
+            raise ValueError(f"segment {i}: 'pieces' must list at least two breakpoints, from 0 to 1 "
+                             f"(got {pieces!r})")
+        points = [Fraction(p) for p in pieces]
         if points[0] != 0 or points[-1] != 1 or any(b <= a for a, b in zip(points, points[1:])):
             return CheckResult(False, i, f"segment {i}: breakpoints must rise from 0 to 1",
                                counter[0])

@@ -214,6 +214,19 @@ def test_check_path_malformed_files_exit_2(tmp_path, capsys):
         assert len(capsys.readouterr().err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("pieces", [[], [0], "0,1", None])
+def test_check_path_segment_without_breakpoints_is_one_line_exit_2(tmp_path, capsys, pieces):
+    # a segment whose breakpoints are missing or too few: a malformed certificate, not a crash
+    scene = FRS_BOX.to_json()
+    run = {"success": True, "waypoints": [list(scene["start"]), list(scene["goal"])],
+           "certificate": {"scene": scene, "segments": [{"pieces": pieces}]}}
+    f = tmp_path / "pieces.json"
+    f.write_text(json.dumps({"runs": [run]}))
+    assert main(["check-path", str(f)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "pieces" in err and "Traceback" not in err, err
+
+
 # ----------------------------------------------------------------------------- planning (OMPL)
 
 

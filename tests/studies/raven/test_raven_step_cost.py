@@ -7,6 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from certiloop.studies.raven import arm as raven
+
 anything = st.floats(allow_nan=True, allow_infinity=True)
 joint = st.floats(-2, 2, allow_nan=False)
 
