@@ -254,7 +254,9 @@ def main(argv: list[str] | None = None) -> int:
     restore = guards.on_interrupt_exit_quietly()
     restore_gc = guards.collect_garbage_less_often()
     try:
-        return _main(argv)
+        from certiloop.proofs.engine.deepstack import call_with_deep_stack
+
+        return call_with_deep_stack(lambda: _main(argv))  # deeply nested models: no recursion limit
     except (BadInput, guards.OutputPathError) as exc:
         print(f"certiloop: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
