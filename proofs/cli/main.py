@@ -499,10 +499,10 @@ def cmd_prove(args: argparse.Namespace) -> int:
                             raise ModelError(theorem.reason)
                         result = prover.prove(theorem, on_start=progress.steps, on_result=progress.step,
                                               smtlib_dir=smt_dir)
-                except ModelError as exc:  # one of several models: its row, and the others run
-                    if len(theorems) == 1:
+                except Exception as exc:  # one of several models: its row, and the others run
+                    if len(theorems) == 1 or not _own_row(exc):
                         raise
-                    unsupported.append(Unsupported(theorem.name, str(exc).removeprefix(f"{theorem.name}: ")))
+                    unsupported.append(Unsupported(theorem.name, _row_reason(theorem.name, exc)))
                     show_unsupported(out, theorem.name, unsupported[-1].reason)
                     docs.append(unsupported[-1].to_json())
                     continue
@@ -520,6 +520,22 @@ def cmd_prove(args: argparse.Namespace) -> int:
                 f"({time.perf_counter() - start:.1f} s)")
     _write_json(args.json, _json_payload(docs, len(theorems)))
     return _prove_exit(results, unsupported)
+
+
+def _own_row(exc: Exception) -> bool:
+    """A model's error that becomes its own row among several: a model certiloop cannot
+    handle, or an internal error in it (unless CERTILOOP_DEBUG asks for the traceback)."""
+    from certiloop.models.lang.terms import ModelError
+
+    return isinstance(exc, ModelError) or not os.environ.get("CERTILOOP_DEBUG")
+
+
+def _row_reason(model: str, exc: Exception) -> str:
+    from certiloop.models.lang.terms import ModelError
+
+    if isinstance(exc, ModelError):
+        return str(exc).removeprefix(f"{model}: ")
+    return f"internal error: {type(exc).__name__}: {exc} (set CERTILOOP_DEBUG=1 for the traceback)"
 
 
 @contextlib.contextmanager
@@ -693,10 +709,10 @@ def cmd_falsify(args: argparse.Namespace) -> int:
                         if isinstance(theorem, Unsupported):
                             raise ModelError(theorem.reason)
                         result = falsify(theorem, opts)
-                except ModelError as exc:  # one of several models: its row, and the others run
-                    if len(theorems) == 1:
+                except Exception as exc:  # one of several models: its row, and the others run
+                    if len(theorems) == 1 or not _own_row(exc):
                         raise
-                    unsupported.append(Unsupported(theorem.name, str(exc).removeprefix(f"{theorem.name}: ")))
+                    unsupported.append(Unsupported(theorem.name, _row_reason(theorem.name, exc)))
                     show_unsupported(out, theorem.name, unsupported[-1].reason)
                     docs.append(unsupported[-1].to_json())
                     continue
