@@ -65,6 +65,20 @@ class Counterexample:
         return result_html(self.result.to_json())
 
 
+class VerdictUnknown(AssertionError):
+    """The theorem is neither proved nor refuted (the pytest plugin reports a work-in-progress
+    model's as xfail); `result` is its TheoremResult."""
+
+    def __init__(self, message: str, result: TheoremResult) -> None:
+        super().__init__(message)
+        self.result = result
+
+
+def _failed(result: TheoremResult, wanted: str) -> AssertionError:
+    message = _message(result, wanted)
+    return VerdictUnknown(message, result) if result.verdict == "unknown" else AssertionError(message)
+
+
 def prove(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None,
           timeout: float | None = None, jobs: int | None = 1) -> TheoremResult:
     """Prove `theorem` (or a zero-argument function returning one) and return the result.
@@ -93,7 +107,7 @@ def assert_proved(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | Non
     theorem = _theorem(theorem)
     result = prove(theorem, rlimit=rlimit, timeout=timeout, jobs=jobs)
     if result.verdict != "proved":
-        raise AssertionError(_message(result, "proved"))
+        raise _failed(result, "proved")
     if falsify:
         found = _falsify(theorem, falsify, shrink=True)  # a bug report: make the run short
         if found.found:
@@ -113,7 +127,7 @@ def assert_refuted(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | No
     theorem = _theorem(theorem)
     result = prove(theorem, rlimit=rlimit, timeout=timeout, jobs=jobs)
     if result.verdict != "refuted":
-        raise AssertionError(_message(result, "refuted"))
+        raise _failed(result, "refuted")
     found = None
     if falsify:
         found = _falsify(theorem, falsify, shrink=False)  # a confirmation: the first run will do
