@@ -32,12 +32,15 @@ RECURSION_LIMIT = 400_000  # about 2.7 KiB of stack per level: a RecursionError,
 def call_with_deep_stack(fn: Callable[[], T]) -> T:
     """fn() on a thread with a large stack; its result, or its exception re-raised here."""
     outcome: dict[str, object] = {}
+    done = threading.Event()
 
     def body() -> None:
         try:
             outcome["value"] = fn()
         except BaseException as exc:  # noqa: BLE001 - handed to the caller as is
             outcome["error"] = exc
+        finally:
+            done.set()
 
     old_limit = sys.getrecursionlimit()
     old_size = threading.stack_size()
@@ -49,7 +52,7 @@ def call_with_deep_stack(fn: Callable[[], T]) -> T:
     finally:
         threading.stack_size(old_size)
     try:
-        _wait(worker)
+        _wait(worker, done)
     finally:
         sys.setrecursionlimit(old_limit)
     if "error" in outcome:
@@ -57,12 +60,15 @@ def call_with_deep_stack(fn: Callable[[], T]) -> T:
     return outcome["value"]  # type: ignore[return-value]
 
 
-def _wait(worker: threading.Thread) -> None:
-    """Join `worker`; a KeyboardInterrupt raised here meanwhile is raised in it as well, and
-    the command's own handling of it (partial reports) finishes before this returns."""
+def _wait(worker: threading.Thread, done: threading.Event) -> None:
+    """Wait until `worker` is done; a KeyboardInterrupt raised here meanwhile is raised in it
+    as well, and the command's own handling of it (partial reports) finishes before this
+    returns. (Not `Thread.join`: on CPython 3.11, a join interrupted by a signal handler's
+    exception releases the running thread's state lock and reports it finished.)"""
     while True:
         try:
-            worker.join()
+            while not done.wait(0.5):
+                pass
             return
         except KeyboardInterrupt:
             _raise_in(worker, KeyboardInterrupt)
