@@ -88,12 +88,17 @@ def prove(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None
     test suite run in parallel by pytest-xdist does not oversubscribe the machine; None: one
     per core)."""
     from certiloop.proofs.engine.budget import Budget
+    from certiloop.proofs.engine.deepstack import call_with_deep_stack
     from certiloop.proofs.engine.prover import Prover
 
     theorem = _theorem(theorem)
     budget = Budget(**{k: v for k, v in (("rlimit", rlimit), ("wall_s", timeout)) if v is not None})
-    with Prover(jobs=jobs, budget=budget) as prover:
-        return prover.prove(theorem)
+
+    def run() -> TheoremResult:
+        with Prover(jobs=jobs, budget=budget) as prover:
+            return prover.prove(theorem)
+
+    return call_with_deep_stack(run)  # a deeply nested model: no recursion limit, as in the CLI
 
 
 def assert_proved(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None,
@@ -161,8 +166,10 @@ def _theorem(theorem: Theorem | Callable[[], Theorem]) -> Theorem:
 
 def _falsify(theorem: Theorem, examples: int, shrink: bool) -> Falsification:
     from certiloop.falsify.search import Options, falsify
+    from certiloop.proofs.engine.deepstack import call_with_deep_stack
 
-    return falsify(theorem, Options(max_examples=examples, seed=0, database=None, shrink=shrink))
+    options = Options(max_examples=examples, seed=0, database=None, shrink=shrink)
+    return call_with_deep_stack(lambda: falsify(theorem, options))
 
 
 def _falsification_text(found: Falsification) -> str:
