@@ -159,3 +159,28 @@ def test_an_entry_that_crashes_while_read_is_its_own_row(tmp_path, capsys, monke
     assert rows["crashes"]["expected"] == "not supported"
     reason = rows["crashes"]["description"]
     assert "two.kyx:1:" in reason and "RecursionError" in reason
+
+
+def test_the_gate_fails_a_crashing_model_in_its_own_row(tmp_path, capsys, monkeypatch):
+    from certiloop.proofs.cli import gate as gate_module
+
+    real_check = gate_module.check_model
+
+    def crash_on_one(theorem, *args, **kwargs):
+        if theorem.name == "crashes":
+            raise RuntimeError("a certiloop bug")
+        return real_check(theorem, *args, **kwargs)
+
+    monkeypatch.setattr(gate_module, "check_model", crash_on_one)
+    monkeypatch.delenv("CERTILOOP_DEBUG", raising=False)
+    kyx = tmp_path / "two.kyx"
+    kyx.write_text(_archive("crashes", "x >= 0 -> [x := x + 1;] x >= 1")
+                   + _archive("fine", "x >= 0 -> [x := x + 1;] x >= 1"))
+    out = tmp_path / "gate.json"
+    code = main(["gate", str(kyx), "--no-cache", "--jobs", "1", "--falsify-examples", "5", "-q",
+                 "--json", str(out)])
+    capsys.readouterr()
+    rows = {d["model"]: d for d in json.loads(out.read_text())}
+    assert code == 1
+    assert rows["fine"]["verdict"] == "proved"
+    assert rows["crashes"]["verdict"] == "not supported" and "RuntimeError" in json.dumps(rows["crashes"])
