@@ -276,6 +276,13 @@ def main(argv: list[str] | None = None) -> int:
         if isinstance(exc, ModelError):
             print(f"certiloop: error: {exc}", file=sys.stderr)
             return EXIT_BAD_INPUT
+        if isinstance(exc, RecursionError):  # past the deep stack's limit
+            from certiloop.proofs.engine.deepstack import RECURSION_LIMIT
+
+            print("certiloop: error: the model is nested too deeply (more than "
+                  f"{RECURSION_LIMIT:,} levels): split deep formulas or sequences "
+                  "into named parts", file=sys.stderr)
+            return EXIT_BAD_INPUT
         print(f"certiloop: internal error: {type(exc).__name__}: {exc} "
               "(set CERTILOOP_DEBUG=1 for the traceback)", file=sys.stderr)
         return EXIT_BAD_INPUT
