@@ -12,6 +12,7 @@ timeout, a solver give-up) never passes.
 from __future__ import annotations
 
 import importlib
+import os
 import time
 from concurrent.futures import Future
 from dataclasses import dataclass, field
@@ -214,6 +215,11 @@ def run_gate(theorems: list, start_prover: Callable[[], Prover], rlimit: int,
                 entry = check_model(theorem, prover, opts, falsifiers.pop(i))
             except ModelError as exc:  # a rule the engine lacks: this model's row, the others run
                 entry = _unsupported(theorem.name, str(exc), theorem.expected)
+            except Exception as exc:  # a certiloop bug in this model: its failing row, the others run
+                if os.environ.get("CERTILOOP_DEBUG"):
+                    raise
+                entry = _unsupported(theorem.name, f"internal error: {type(exc).__name__}: {exc} "
+                                     "(set CERTILOOP_DEBUG=1 for the traceback)", theorem.expected)
             if cache and entry.verdict not in ("unknown", "not supported"):  # a budget may be raised
                 cache.put(key, entry.to_json())
         if cache and entry.verdict == "proved":  # lets `certiloop extract` skip the proof

@@ -128,11 +128,14 @@ def _from_file(path_text: str, attr: str) -> Theorem:
     try:
         spec.loader.exec_module(module)
     except ModelError as exc:
-        raise ModelError(f"{path_text}: {exc}") from None
+        raise ModelError(f"{_user_place(exc, path, path_text)}: {exc}") from None
     except SyntaxError as exc:
-        raise ModelError(f"{path_text}:{exc.lineno}: syntax error: {exc.msg}") from None
+        column = f":{exc.offset}" if exc.offset else ""
+        where = f"{exc.filename}:{exc.lineno}{column}" if exc.filename else f"{path_text}:{exc.lineno}"
+        raise ModelError(f"{where}: syntax error: {exc.msg} (fix the Python syntax there)") from None
     except Exception as exc:  # the user's module failed while importing
-        raise ModelError(f"{path_text}: failed to import: {type(exc).__name__}: {exc}") from None
+        raise ModelError(f"{_user_place(exc, path, path_text)}: failed to import: "
+                         f"{type(exc).__name__}: {exc}") from None
     finally:
         sys.path.remove(folder)
     if not hasattr(module, attr):
@@ -146,13 +149,28 @@ def _from_file(path_text: str, attr: str) -> Theorem:
         try:
             obj = obj()
         except ModelError as exc:
-            raise ModelError(f"{path_text}:{attr}: {exc}") from None
+            raise ModelError(f"{_user_place(exc, path, path_text)}: {attr}: {exc}") from None
         except Exception as exc:
-            raise ModelError(f"{path_text}:{attr}: building the theorem failed: "
+            raise ModelError(f"{_user_place(exc, path, path_text)}: {attr}: building the theorem failed: "
                              f"{type(exc).__name__}: {exc}") from None
     if not isinstance(obj, Theorem):
         raise ModelError(f"{path_text}:{attr} is a {type(obj).__name__}, not a certiloop Theorem")
     return obj
+
+
+def _user_place(exc: BaseException, path: Path, path_text: str) -> str:
+    """FILE:LINE of the innermost line of the user's own files the exception passed through
+    (the model file or a module beside it), else the model file's name."""
+    folder = path.resolve().parent
+    place = path_text
+    frame = exc.__traceback__
+    while frame is not None:
+        name = Path(frame.tb_frame.f_code.co_filename)
+        if name.is_absolute() and name.parent == folder and name.suffix == ".py":
+            shown = path_text if name == path.resolve() else str(name)
+            place = f"{shown}:{frame.tb_lineno}"
+        frame = frame.tb_next
+    return place
 
 
 def _no_arguments_needed(builder, where: str) -> None:

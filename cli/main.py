@@ -31,7 +31,9 @@ def main(argv: list[str] | None = None) -> int:
     restore = guards.on_interrupt_exit_quietly()
     restore_gc = guards.collect_garbage_less_often()
     try:
-        return _main(argv)
+        from certiloop.proofs.engine.deepstack import call_with_deep_stack
+
+        return call_with_deep_stack(lambda: _main(argv))  # deeply nested models: no recursion limit
     except (BadInput, guards.OutputPathError) as exc:
         print(f"certiloop: error: {exc}", file=sys.stderr)
         return EXIT_BAD_INPUT
@@ -50,6 +52,13 @@ def main(argv: list[str] | None = None) -> int:
 
         if isinstance(exc, ModelError):
             print(f"certiloop: error: {exc}", file=sys.stderr)
+            return EXIT_BAD_INPUT
+        if isinstance(exc, RecursionError):  # past the deep stack's limit
+            from certiloop.proofs.engine.deepstack import RECURSION_LIMIT
+
+            print("certiloop: error: the model is nested too deeply (more than "
+                  f"{RECURSION_LIMIT:,} levels): split deep formulas or sequences "
+                  "into named parts", file=sys.stderr)
             return EXIT_BAD_INPUT
         print(f"certiloop: internal error: {type(exc).__name__}: {exc} "
               "(set CERTILOOP_DEBUG=1 for the traceback)", file=sys.stderr)

@@ -131,3 +131,21 @@ def name_unsupported(unsupported: list) -> None:
         print(f"certiloop: error: {unsupported[0].name} is not supported{more}: {unsupported[0].reason}",
               file=sys.stderr)
 
+
+
+def own_row(exc: Exception) -> bool:
+    """A model's error that becomes its own row among several: a model certiloop cannot
+    handle, or an internal error in it (unless CERTILOOP_DEBUG asks for the traceback)."""
+    import os
+
+    from certiloop.models.lang.terms import ModelError
+
+    return isinstance(exc, ModelError) or not os.environ.get("CERTILOOP_DEBUG")
+
+
+def row_reason(model: str, exc: Exception) -> str:
+    from certiloop.models.lang.terms import ModelError
+
+    if isinstance(exc, ModelError):
+        return str(exc).removeprefix(f"{model}: ")
+    return f"internal error: {type(exc).__name__}: {exc} (set CERTILOOP_DEBUG=1 for the traceback)"

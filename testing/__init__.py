@@ -10,7 +10,9 @@
         assert cex.initial["vt"] != "0"
 
 The pytest plugin (`certiloop.testing.plugin`, registered as a pytest11 entry point) turns
-every theorem in a `*_models.py` file into a test of its `expected` verdict.
+every theorem in a `*_models.py` file into a test of its `expected` verdict; a model listed
+in `[tool.certiloop] wip = [...]` (pyproject.toml) is a work in progress, reported as xfail
+while it is `unknown` (see the plugin's docstring).
 Importing this package is cheap: the prover is imported when an assertion first runs.
 """
 

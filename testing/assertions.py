@@ -65,6 +65,20 @@ class Counterexample:
         return result_html(self.result.to_json())
 
 
+class VerdictUnknown(AssertionError):
+    """The theorem is neither proved nor refuted (the pytest plugin reports a work-in-progress
+    model's as xfail); `result` is its TheoremResult."""
+
+    def __init__(self, message: str, result: TheoremResult) -> None:
+        super().__init__(message)
+        self.result = result
+
+
+def _failed(result: TheoremResult, wanted: str) -> AssertionError:
+    message = _message(result, wanted)
+    return VerdictUnknown(message, result) if result.verdict == "unknown" else AssertionError(message)
+
+
 def prove(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None,
           timeout: float | None = None, jobs: int | None = 1) -> TheoremResult:
     """Prove `theorem` (or a zero-argument function returning one) and return the result.
@@ -74,12 +88,17 @@ def prove(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None
     test suite run in parallel by pytest-xdist does not oversubscribe the machine; None: one
     per core)."""
     from certiloop.proofs.engine.budget import Budget
+    from certiloop.proofs.engine.deepstack import call_with_deep_stack
     from certiloop.proofs.engine.prover import Prover
 
     theorem = _theorem(theorem)
     budget = Budget(**{k: v for k, v in (("rlimit", rlimit), ("wall_s", timeout)) if v is not None})
-    with Prover(jobs=jobs, budget=budget) as prover:
-        return prover.prove(theorem)
+
+    def run() -> TheoremResult:
+        with Prover(jobs=jobs, budget=budget) as prover:
+            return prover.prove(theorem)
+
+    return call_with_deep_stack(run)  # a deeply nested model: no recursion limit, as in the CLI
 
 
 def assert_proved(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | None = None,
@@ -93,7 +112,7 @@ def assert_proved(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | Non
     theorem = _theorem(theorem)
     result = prove(theorem, rlimit=rlimit, timeout=timeout, jobs=jobs)
     if result.verdict != "proved":
-        raise AssertionError(_message(result, "proved"))
+        raise _failed(result, "proved")
     if falsify:
         found = _falsify(theorem, falsify, shrink=True)  # a bug report: make the run short
         if found.found:
@@ -113,7 +132,7 @@ def assert_refuted(theorem: Theorem | Callable[[], Theorem], *, rlimit: int | No
     theorem = _theorem(theorem)
     result = prove(theorem, rlimit=rlimit, timeout=timeout, jobs=jobs)
     if result.verdict != "refuted":
-        raise AssertionError(_message(result, "refuted"))
+        raise _failed(result, "refuted")
     found = None
     if falsify:
         found = _falsify(theorem, falsify, shrink=False)  # a confirmation: the first run will do
@@ -147,8 +166,10 @@ def _theorem(theorem: Theorem | Callable[[], Theorem]) -> Theorem:
 
 def _falsify(theorem: Theorem, examples: int, shrink: bool) -> Falsification:
     from certiloop.falsify.search import Options, falsify
+    from certiloop.proofs.engine.deepstack import call_with_deep_stack
 
-    return falsify(theorem, Options(max_examples=examples, seed=0, database=None, shrink=shrink))
+    options = Options(max_examples=examples, seed=0, database=None, shrink=shrink)
+    return call_with_deep_stack(lambda: falsify(theorem, options))
 
 
 def _falsification_text(found: Falsification) -> str:

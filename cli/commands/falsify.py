@@ -108,10 +108,10 @@ def run(args: argparse.Namespace) -> int:
                         if isinstance(theorem, Unsupported):
                             raise ModelError(theorem.reason)
                         result = api.falsify(theorem, **search)
-                except ModelError as exc:  # one of several models: its row, and the others run
-                    if len(theorems) == 1:
+                except Exception as exc:  # one of several models: its row, and the others run
+                    if len(theorems) == 1 or not options.own_row(exc):
                         raise
-                    unsupported.append(Unsupported(theorem.name, str(exc).removeprefix(f"{theorem.name}: ")))
+                    unsupported.append(Unsupported(theorem.name, options.row_reason(theorem.name, exc)))
                     show_unsupported(out, theorem.name, unsupported[-1].reason)
                     docs.append(unsupported[-1].to_json())
                     continue

@@ -626,7 +626,7 @@ class Builder:
         domain = TRUE if domain_tree is None else self._bool(domain_tree, env)
         self.aliases.extend((e, s, len(self.binders), self.programs) for e, s, _ in lifted)  # along the flow
         try:
-            invariants, olds = self._annotations_with_olds(notes, env)
+            invariants, olds = self._annotations_with_olds(notes, env, differential=True)
         finally:
             del self.aliases[len(self.aliases) - len(lifted):]
         # along the flow x' equals its right-hand side (only primes already in use matter)
@@ -687,15 +687,16 @@ class Builder:
             known += [g * a > 0, cmp("==", g * g, 1)] if moving else [cmp("==", g * g, 1)]  # for later signs
         return prefix, And(domain, *pins) if pins else domain
 
-    def _annotations_with_olds(self, notes: list[Tree], env) -> tuple[list[Node], dict[str, Node]]:
+    def _annotations_with_olds(self, notes: list[Tree], env,
+                               differential: bool = False) -> tuple[list[Node], dict[str, Node]]:
         """A loop's or an ODE's annotations, and the `old(e)` they use: fresh name -> e."""
         outer, self.olds = self.olds, {}
         try:
-            return self._annotations(notes, env), self.olds
+            return self._annotations(notes, env, differential), self.olds
         finally:
             self.olds = outer
 
-    def _annotations(self, notes: list[Tree], env) -> list[Node]:
+    def _annotations(self, notes: list[Tree], env, differential: bool = False) -> list[Node]:
         out: list[Node] = []
         for note in notes:
             kind, *formulas = note.children
@@ -703,7 +704,22 @@ class Builder:
                 continue  # @variant: for diamond proofs, which do not use it
             for f in formulas:
                 out.append(self._bool(f, env))
+                if differential and not _comparisons_only(out[-1]):
+                    raise self.fail(f, "a differential invariant must be a conjunction of comparisons "
+                                    "(optionally guarded, `C -> a`); `abs`, `min`, `max`, `|` and `!` "
+                                    "split it into cases: write `abs(e) <= c` as `-c <= e & e <= c`, "
+                                    "or give each case its own invariant")
         return out
+
+
+def _comparisons_only(f: Node) -> bool:
+    """What the ODE rules take as a differential invariant: comparisons, joined by `&`, each
+    possibly under a guard `C -> ...`."""
+    if f.op in ("and", "true"):
+        return all(_comparisons_only(a) for a in f.args)
+    if f.op == "implies":
+        return _comparisons_only(f.args[1])
+    return f.op == "cmp"
 
 
 def _as_written(build, op: str, parts: list[Node]) -> Node:

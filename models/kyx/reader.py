@@ -24,6 +24,7 @@ Language the engine does not have is translated exactly or refused with line and
 from __future__ import annotations
 
 import json
+import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -223,6 +224,11 @@ def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> l
             if not isinstance(exc, KyxError):
                 message = f"{_where(source, name_tok)}: {message}"
             entries.append(Entry(name, str(kind), None, message))
+        except Exception as exc:  # a certiloop bug in one entry: its row, the others are still read
+            if os.environ.get("CERTILOOP_DEBUG"):
+                raise
+            entries.append(Entry(name, str(kind), None, f"{_where(source, name_tok)}: internal error while "
+                                 f"reading it: {type(exc).__name__}: {exc} (please report it)"))
     return entries
 
 

@@ -149,6 +149,17 @@ class Node:
             )
         raise ModelError(f"the term `{self}` has no Python truth value")
 
+    def _not_a_number(self, *_args) -> Any:
+        """float(x), int(x), math.sin(x), round(x), abs(x): a symbolic term is no number."""
+        raise ModelError(
+            f"`{self}` is a symbolic term, not a number: Python's math functions (math.sin, math.exp, "
+            "math.sqrt, float, int, round, abs) cannot take it, and transcendental functions are not "
+            "supported in models; use +, -, *, / and ** with a natural exponent (abs(e) <= c is "
+            "And(-c <= e, e <= c); min and max are assign_min or a choice)")
+
+    __float__ = __int__ = __index__ = __complex__ = _not_a_number
+    __round__ = __trunc__ = __floor__ = __ceil__ = __abs__ = _not_a_number
+
     def __str__(self) -> str:
         return show(self)
 

@@ -350,16 +350,8 @@ class VCGen:
 
     # ---- the rules
     def exec(self, p: Program, st: State, k: Callable[[State], None]) -> None:
-        if isinstance(p, Assign):
-            self.require_defined(st, f"`{p}`", *_indices(p.target), p.value)
-            k(st.bind(self._write(st, p.target, st.value(p.value))))
-        elif isinstance(p, Havoc):
-            self.require_defined(st, f"`{p}`", *_indices(p.target))
-            k(st.bind(self._write(st, p.target, self.names.fresh(_root(p.target).payload,
-                                                                 p.target.sort, "chosen"))))
-        elif isinstance(p, Test):
-            self.require_defined(st, f"`{p}`", p.cond)
-            k(st.assume(st.value(expand_modalities(p.cond, self.names, positive=False))))
+        if isinstance(p, (Assign, Havoc, Test)):
+            k(self._step(p, st))
         elif isinstance(p, Seq):
             self._seq(p.parts, st, k)
         elif isinstance(p, Choice):
@@ -372,11 +364,29 @@ class VCGen:
         else:  # pragma: no cover
             raise TypeError(p)
 
-    def _seq(self, parts: tuple[Program, ...], st: State, k: Callable[[State], None]) -> None:
-        if not parts:
+    def _step(self, p: Assign | Havoc | Test, st: State) -> State:
+        """The state after a statement with exactly one successor."""
+        if isinstance(p, Assign):
+            self.require_defined(st, f"`{p}`", *_indices(p.target), p.value)
+            return st.bind(self._write(st, p.target, st.value(p.value)))
+        if isinstance(p, Havoc):
+            self.require_defined(st, f"`{p}`", *_indices(p.target))
+            return st.bind(self._write(st, p.target, self.names.fresh(_root(p.target).payload,
+                                                                      p.target.sort, "chosen")))
+        self.require_defined(st, f"`{p}`", p.cond)
+        return st.assume(st.value(expand_modalities(p.cond, self.names, positive=False)))
+
+    def _seq(self, parts: tuple[Program, ...], st: State, k: Callable[[State], None], start: int = 0) -> None:
+        """Straight-line statements in a loop (no continuation frame each: a program of
+        10,000 assignments does not nest 10,000 calls); a branching one continues at the next."""
+        i = start
+        while i < len(parts) and isinstance(parts[i], (Assign, Havoc, Test)):
+            st = self._step(parts[i], st)
+            i += 1
+        if i == len(parts):
             k(st)
             return
-        self.exec(parts[0], st, lambda s: self._seq(parts[1:], s, k))
+        self.exec(parts[i], st, lambda s: self._seq(parts, s, k, i + 1))
 
     def _write(self, st: State, target: Node, value: Node) -> dict[str, Node]:
         if target.op == "var":

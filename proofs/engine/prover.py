@@ -16,9 +16,14 @@ from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.vacuity import nonblocking_obligations
 from certiloop.proofs.core.vcgen import Obligation, TooManyObligations, generate
-from certiloop.proofs.core.verdicts import ObligationResult, RunEvidence, decide_theorem, readable
+from certiloop.proofs.core.verdicts import Decision, ObligationResult, RunEvidence, decide_theorem, readable
 from certiloop.proofs.engine.budget import PLAN_SHARE, QUICK_SHARE, SCREEN_SHARE, WAVE, Budget
 from certiloop.proofs.engine.discharge import discharge_one
+from certiloop.proofs.engine.early_iterations import (
+    division_by_zero_on_a_run,
+    ill_defined_reason,
+    loop_division_open,
+)
 from certiloop.proofs.engine.eigen import ghost_options
 from certiloop.proofs.engine.odeplan import plan_odes
 from certiloop.proofs.engine.vacuous import vacuity
@@ -229,6 +234,10 @@ class Prover:
             if found is not None:
                 refutation, evidence = found
         decision = decide_theorem(results, evidence, why)
+        if search and not decision.ill_defined and not decision.inconsistent and loop_division_open(results):
+            found = division_by_zero_on_a_run(theorem, lambda obs: self._discharge(obs, None, self.budget))
+            if found is not None:
+                decision = Decision("unknown", ill_defined_reason(found), ill_defined=True)
         result = TheoremResult(theorem.name, decision.verdict, theorem.expected, 0.0, results,
                                decision.reason, refutation, run=evidence, ill_defined=decision.ill_defined,
                                inconsistent=decision.inconsistent)

@@ -135,3 +135,74 @@ def test_the_plugin_is_a_pytest11_entry_point():
     project = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
     assert project["project"]["entry-points"]["pytest11"] == {"certiloop": "certiloop.testing.plugin"}
     assert "certiloop.testing" in project["tool"]["setuptools"]["packages"]
+
+
+def test_imported_builders_annotated_theorem_are_items_once(pytester, run):
+    # cart_forward is also built as `safe` below: one item for it, named where it is defined
+    pytester.makepyfile(lib_models="""
+        from certiloop.models.library.textbook import cart_forward, cart_may_brake
+        from os.path import join        # an imported function that is no builder: never called
+        safe = cart_forward()
+    """)
+    result = run("-v")
+    result.assert_outcomes(passed=2)
+    result.stdout.fnmatch_lines(["*lib_models.py::safe PASSED*", "*lib_models.py::cart_may_brake PASSED*"])
+
+
+def test_a_models_file_without_theorems_is_warned_about(pytester, run):
+    pytester.makepyfile(empty_models="""
+        from os.path import join
+        def make(x):
+            return x
+        LIMIT = 3
+    """)
+    result = run("-W", "always")
+    result.stdout.fnmatch_lines(["*CertiloopModelsWarning*empty_models.py*yields no certiloop theorem*"])
+    assert result.ret == pytest.ExitCode.NO_TESTS_COLLECTED
+
+
+def test_a_file_with_theorems_is_not_warned_about(pytester, run):
+    pytester.makepyfile(cart_models=MODELS)
+    result = run("-W", "always")
+    result.assert_outcomes(passed=2)
+    assert "CertiloopModelsWarning" not in result.stdout.str()
+
+
+WIP_MODELS = """
+import dataclasses
+from certiloop.models.library.textbook import cart_forward
+
+unfinished = cart_forward()                                               # unknown at rlimit 10
+finished = dataclasses.replace(cart_forward(), name="user.finished")      # unknown at rlimit 10
+"""
+
+
+def test_a_work_in_progress_model_that_is_unknown_is_xfail(pytester, run):
+    pytester.makepyprojecttoml('[tool.pytest.ini_options]\ncertiloop_rlimit = "10"\n'
+                               '[tool.certiloop]\nwip = ["unfinished"]\n')
+    pytester.makepyfile(cart_models=WIP_MODELS)
+    result = run("-rxX")
+    result.assert_outcomes(xfailed=1, failed=1)  # finished is not on the list
+    result.stdout.fnmatch_lines(["*XFAIL*unfinished*work in progress*"])
+
+
+def test_a_wrong_verdict_fails_and_a_proof_is_xpass_even_in_progress(pytester, run):
+    # names match item names or theorem names (textbook.cart_forward)
+    pytester.makepyprojecttoml('[tool.certiloop]\nwip = ["wrong", "textbook.cart_*"]\n')
+    pytester.makepyfile(cart_models="""
+        import dataclasses
+        from certiloop.models.library import textbook
+        safe = textbook.cart_forward()
+        wrong = dataclasses.replace(textbook.cart_may_brake(), name="user.wrong", expected="proved")
+    """)
+    result = run("-rxX")
+    result.assert_outcomes(xpassed=1, failed=1)
+    result.stdout.fnmatch_lines(["*user.wrong is refuted, not proved*"])
+
+
+def test_a_malformed_wip_list_is_a_usage_error(pytester, run):
+    pytester.makepyprojecttoml('[tool.certiloop]\nwip = "unfinished"\n')
+    pytester.makepyfile(cart_models=MODELS)
+    result = run()
+    assert result.ret == pytest.ExitCode.USAGE_ERROR
+    assert "[tool.certiloop] wip must be a list of model names" in result.stderr.str()
