@@ -27,7 +27,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from certiloop.kernel.filtered import ETA, INFL, NAN, TIGHT, U, _Undefined, floor
+from certiloop.kernel.filtered import ETA, INFL, NAN, U, _Undefined, floor
+
+TIGHT = 2.0 ** -44  # a real output is returned from floats only within this relative bound, else exactly
 
 
 class Undecided(Exception):

@@ -244,11 +244,14 @@ def test_ctrl1_picks_the_first_mode_whose_domain_holds():
 def _predictive_state(p, r, n, f, fp, G, e):
     state = {"px": p[0], "py": p[1], "rx": r[0], "ry": r[1], "nx": n[0], "ny": n[1], "fx": f[0], "fy": f[1],
              "fxp": fp[0], "fyp": fp[1], "G": G, "e": e}
-    d0 = (p[0] - r[0]) * n[0] + (p[1] - r[1]) * n[1]
-    fnp = fp[0] * n[0] + fp[1] * n[1]
-    # the interpreter solves linear pins only: the root of root²·G = 2·d0·fnp is given
-    q = 2 * d0 * fnp / G
-    return state, Known({"root": math.sqrt(q)} if q >= 0 else {})
+    F = Fraction
+    d0 = (F(p[0]) - F(r[0])) * F(n[0]) + (F(p[1]) - F(r[1])) * F(n[1])
+    fnp = F(fp[0]) * F(n[0]) + F(fp[1]) * F(n[1])
+    # the interpreter solves linear pins only: the root of root²·G = 2·d0·fnp is given, from the
+    # exact radicand (d0 in floats may cancel to a few correct digits)
+    q = 2 * d0 * fnp / F(G)
+    return state, Known({"root": math.isqrt(q.numerator * 4 ** 80 // q.denominator) / 2.0 ** 80}
+                        if q >= 0 else {})
 
 
 def test_predictive():
