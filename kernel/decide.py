@@ -15,7 +15,8 @@ the step reports no run: the caller falls back, as for a state where the model h
 The same kit semantics in both passes: a division by zero (a NaN, 0/0) is `filtered.NAN`,
 which fails every comparison but `!=` (the model's own guard `b != 0` then fails); a
 non-finite input is outside the model's domain (no run); a real output is returned as the
-largest float <= its real value (as the C kernel's `cl_lower`), or no run if that is not
+largest float <= its real value (a float at most the real value, as the C kernel's `cl_lower`;
+here always the largest, so that a monitor can recognise it), or no run if that is not
 finite."""
 
 from __future__ import annotations
@@ -27,9 +28,45 @@ from functools import lru_cache
 
 import numpy as np
 
-from certiloop.kernel.filtered import ETA, INFL, NAN, U, _Undefined, floor
+# numpy and the standard library only: the generated monitors carry this module's source
+U = 2.0 ** -52  # as certiloop.kernel.filtered: twice the unit roundoff of float64
+ETA = 2.0 ** -1000  # covers a product's underflow
+INFL = 1.0 + 2.0 ** -40  # covers the rounding of the bound computations themselves
 
-TIGHT = 2.0 ** -44  # a real output is returned from floats only within this relative bound, else exactly
+
+class _Undefined:
+    """NaN of both passes (a division by zero): absorbs arithmetic, fails every comparison but
+    `!=`, without turning a Fraction into a float (as certiloop.kernel.filtered.NAN)."""
+
+    def _self(self, *_):
+        return self
+
+    __add__ = __radd__ = __sub__ = __rsub__ = __mul__ = __rmul__ = _self
+    __truediv__ = __rtruediv__ = __pow__ = __neg__ = __abs__ = _self
+
+    def _false(self, _):
+        return False
+
+    __lt__ = __le__ = __gt__ = __ge__ = __eq__ = _false
+
+    def __ne__(self, _):
+        return True
+
+    __hash__ = object.__hash__
+
+    def __repr__(self):
+        return "NAN"
+
+
+NAN = _Undefined()
+
+
+def floor(q: Fraction) -> float:
+    """The largest float <= the rational q (|q| at most the largest float)."""
+    f = float(q)
+    if Fraction(f) > q:
+        f = math.nextafter(f, -math.inf)
+    return f
 
 
 class Undecided(Exception):
@@ -258,7 +295,7 @@ class _Float(_Kit):
             if a.v < 0:
                 return NAN
             v = math.sqrt(a.v)
-            if v * v == a.v and math.fma(v, v, -a.v) == 0.0:
+            if Fraction(v) ** 2 == Fraction(a.v):
                 return Bounded(v)
             return Bounded(v, _up(abs(v) * U + ETA))
         lo = (a.v - a.e * INFL) - (abs(a.v) + a.e) * U
@@ -277,9 +314,15 @@ class _Float(_Kit):
             if not math.isfinite(b.v):
                 raise Undecided  # the float overflowed, the real value may not have
             return b.v
-        if not (math.isfinite(b.v) and b.e * INFL <= abs(b.v) * TIGHT):
+        if not (math.isfinite(b.v) and math.isfinite(b.e)):
             raise Undecided
-        return math.nextafter(b.v - b.e * INFL, -math.inf)
+        # the largest float <= the real value, where the bound pins it down (else exactly): the
+        # same float as the exact pass's, whichever pass decides
+        e = Fraction(b.e) * Fraction(INFL)
+        f = floor(Fraction(b.v) - e)
+        if Fraction(b.v) + e < Fraction(math.nextafter(f, math.inf)):
+            return f
+        raise Undecided
 
     @staticmethod
     def close(value, command, tol) -> bool:

@@ -64,7 +64,7 @@ from certiloop.kernel.extract.errors import ExtractError, _brief
 from certiloop.kernel.extract.generate import extract
 from certiloop.kernel.extract.modelplex_family import family_controller_monitor
 from certiloop.kernel.extract.monitor_terms import MonitorError, _conv, _fresh, _symbols, _term
-from certiloop.kernel.extract.scalar import _Python
+from certiloop.kernel.extract.scalar import KIT, STEP, _Python
 from certiloop.kernel.extract.shapes import _latches
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, And, ModelError, Node, Var, free_vars
@@ -81,6 +81,7 @@ ModelPlex-style monitors of `{model}` ({description}), generated from the model'
 """
 
 import math
+import types
 
 import numpy as np
 
@@ -108,7 +109,23 @@ def monitors(theorem: Theorem) -> str:
     src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
                         state=state, command=command, plant_state=plant_state, plant_params=plant_params,
                         plant_how=plant_how)
-    return src + "\n" + ctrl_code + "\n" + plant_code + "\n" + RUNTIME
+    runtime = RUNTIME + (_decide_runtime() if "_decide." in ctrl_code else "")
+    return src + "\n" + ctrl_code + "\n" + plant_code + "\n" + runtime
+
+
+def _decide_runtime() -> str:
+    """The float-sound decisions' runtime (certiloop.kernel.decide: numpy and the standard
+    library only), carried in the monitor module so that it imports nothing of certiloop."""
+    import inspect
+
+    from certiloop.kernel import decide
+
+    source = inspect.getsource(decide)
+    assert "'''" not in source and "\\" not in source  # it fits in a raw triple-quoted string
+    return ("\n\n# certiloop.kernel.decide, the runtime of the controller monitor's decisions\n"
+            "_DECIDE_SOURCE = r'''" + source + "'''\n"
+            "_decide = types.ModuleType('_decide')\n"
+            "exec(compile(_DECIDE_SOURCE, '<certiloop.kernel.decide>', 'exec'), _decide.__dict__)\n")
 
 
 # --------------------------------------------------------------------------- controller monitor
@@ -182,7 +199,7 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
         if not _deterministic(Seq(tuple(parts))):
             raise MonitorError("the step has loops and nondeterministic choices: no monitor")
         return _rerun_monitor(controller_src, outputs)
-    taken = set(symbols) | {"tol", "state", "command", "math", "np"}
+    taken = set(symbols) | {"tol", "state", "command", "math", "np", KIT, "_decide", "_controller_monitor"}
     tol = _fresh(taken, "tol")
     cmd = {o: _fresh(taken, f"cmd_{o}") for o in outputs}
     # leading `x := *` that no earlier statement touches: the controller's inputs (hoisted)
@@ -199,14 +216,16 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
             continue
         rest.append(_fix_output_havocs(q, cmd))
         touched |= set(written(q)) | _reads(q)
-    match = []
+    match, closes = [], {}
     for o in outputs:
         s = symbols[o].sort
         if s.is_array:
             raise MonitorError(f"the output `{o}` is an array and the step is not deterministic: no monitor")
         o_var, c_var = Var(o, s), Var(cmd[o], s)
-        if s == REAL:
-            match += [o_var - c_var <= Var(tol, REAL), c_var - o_var <= Var(tol, REAL)]
+        if s == REAL:  # |o - c| <= tol in the reals, or c the float the controller returns for o
+            atom = o_var - c_var <= Var(tol, REAL)
+            closes[atom.key] = (o_var, c_var, Var(tol, REAL))
+            match.append(atom)
         else:
             match.append(o_var == c_var)
     body = Seq((*rest, Test(And(*match))))
@@ -214,6 +233,7 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
     live = set(outputs) | {"__ok"}
     py = _Python({**symbols, tol: Var(tol, REAL), **{c: Var(c, symbols[o].sort) for o, c in cmd.items()}},
                  live, Seq(tuple(program)))
+    py.kit, py.closes = KIT, closes
     try:
         py.block(program)
     except ExtractError as exc:
@@ -221,9 +241,16 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
     state = [p for p in py.params if p not in cmd.values() and p != tol]
     lines = ["def controller_monitor(state, command, tol=0.0):",
              '    """True iff some run of the control step from `state` ends with `command` (reals',
-             '    within tol). state: a dict with the keys STATE; command: a dict with the keys COMMAND."""',
-             f"    {tol} = np.float64(tol)",
-             f"    if not ({tol} >= 0.0):",
+             "    within tol in the reals, or the float the extracted controller returns). state: a dict",
+             "    with the keys STATE; command: a dict with the keys COMMAND. Every decision is the real",
+             "    model's on these float values (exact rationals): floats with a rigorous error bound,",
+             '    exact rationals where the bound cannot decide; undecidable there: False."""',
+             "    return _decide.run(_controller_monitor, False, state, command, tol)",
+             "",
+             "",
+             f"def _controller_monitor({KIT}, state, command, tol):",
+             f"    {tol} = {KIT}.real(tol)",
+             f"    if not ({tol} >= {KIT}.c(0)):",
              "        return False"]
     entries = [(v, f"state[{v!r}]", symbols[v].sort) for v in state]
     entries += [(c, f"command[{o!r}]", symbols[o].sort) for o, c in cmd.items()]
@@ -233,10 +260,10 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
             lines.append(f"    if {v} is None:")
             lines.append("        return False")
             continue
-        lines.append(f"    {v} = {_conv(sort)}({source})")
-        if sort == REAL and source.startswith("command"):
-            lines.append(f"    if not np.isfinite({v}):")
-            lines.append("        return False")
+        # a non-finite real is outside the model's domain: no run, False
+        real = sort == REAL or sort.is_array and sort.range == REAL
+        conv = (KIT + ".real" if sort == REAL else KIT + ".array") if real else _conv(sort)
+        lines.append(f"    {v} = {conv}({source})")
     lines.append("    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):")
     blocked = "return False"
     for text in py.lines:
@@ -265,6 +292,9 @@ def _rerun_monitor(controller_src: str, outputs: list[str]) -> tuple[list, list,
     fn = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "controller")
     params = [a.arg for a in fn.args.args]
     source = ast.get_source_segment(controller_src, fn)
+    for helper in tree.body:  # the one pass the entry runs with each number kit
+        if isinstance(helper, ast.FunctionDef) and helper.name == STEP:
+            source += "\n\n\n" + ast.get_source_segment(controller_src, helper)
     imports = "import operator\n\n" if "operator." in source else ""
     lines = [imports + source.replace("def controller(", "def _controller(", 1), "",
              "def controller_monitor(state, command, tol=0.0):",

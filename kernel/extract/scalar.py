@@ -76,6 +76,8 @@ class _Python:
         # the number kit the reals are written over (certiloop.kernel.decide: a float filter with
         # error bounds, then exact rationals); None: plain float64
         self.kit: str | None = None
+        # comparisons `o - c <= tol` a monitor writes as `kit.close(o, c, tol)` (key -> (o, c, tol))
+        self.closes: dict = {}
 
     def line(self, text: str) -> None:
         self.lines.append("    " * self.depth + text)
@@ -138,6 +140,9 @@ class _Python:
             self.array_reads.add(root)
             self.read(root)
             return f"{root}[{', '.join(idx)}]"
+        if op == "cmp" and n.key in self.closes:
+            o, c, tol = (self.code(x, subst, True) for x in self.closes[n.key])
+            return f"{self.kit}.close({o}, {c}, {tol})"
         if op == "cmp":
             r = any(a.sort == REAL for a in n.args)
             a = [self.code(x, subst, r) for x in n.args]
