@@ -12,9 +12,9 @@ at most:
 the exact pass cannot represent a value (the square root of a rational that is not a square)
 the step reports no run: the caller falls back, as for a state where the model has none.
 
-The same kit semantics in both passes: a division by zero (a NaN, 0/0) is `filtered.NAN`,
-which fails every comparison but `!=` (the model's own guard `b != 0` then fails); a
-non-finite input is outside the model's domain (no run); a real output is returned as the
+The same kit semantics in both passes, the exact interpreter's: a division by zero or the
+square root of a negative number is ill-defined (no run through it); a non-finite input is
+outside the model's domain (no run); a real output is returned as the
 largest float <= its real value (a float at most the real value, as the C kernel's `cl_lower`;
 here always the largest, so that a monitor can recognise it), or no run if that is not
 finite."""
@@ -32,33 +32,6 @@ import numpy as np
 U = 2.0 ** -52  # as certiloop.kernel.filtered: twice the unit roundoff of float64
 ETA = 2.0 ** -1000  # covers a product's underflow
 INFL = 1.0 + 2.0 ** -40  # covers the rounding of the bound computations themselves
-
-
-class _Undefined:
-    """NaN of both passes (a division by zero): absorbs arithmetic, fails every comparison but
-    `!=`, without turning a Fraction into a float (as certiloop.kernel.filtered.NAN)."""
-
-    def _self(self, *_):
-        return self
-
-    __add__ = __radd__ = __sub__ = __rsub__ = __mul__ = __rmul__ = _self
-    __truediv__ = __rtruediv__ = __pow__ = __neg__ = __abs__ = _self
-
-    def _false(self, _):
-        return False
-
-    __lt__ = __le__ = __gt__ = __ge__ = __eq__ = _false
-
-    def __ne__(self, _):
-        return True
-
-    __hash__ = object.__hash__
-
-    def __repr__(self):
-        return "NAN"
-
-
-NAN = _Undefined()
 
 
 def floor(q: Fraction) -> float:
@@ -215,7 +188,7 @@ def _lift(x) -> Bounded | None:
 
 def _div(a: Bounded, b: Bounded):
     if b.e == 0 and b.v == 0:
-        return NAN  # the model's value is undefined; its guard `b != 0` fails
+        raise NoRun  # x / 0 is ill-defined: the model has no run through it
     den = abs(b.v) - b.e
     if not den > 0:
         raise Undecided  # the divisor's sign (or whether it is 0) is not certain
@@ -282,18 +255,14 @@ class _Float(_Kit):
 
     @staticmethod
     def div(a, b):
-        if isinstance(a, _Undefined) or isinstance(b, _Undefined):
-            return NAN
         return _div(_lift(a), _lift(b))
 
     @staticmethod
     def sqrt(a):
-        if isinstance(a, _Undefined):
-            return NAN
         a = _lift(a)
         if a.e == 0:
             if a.v < 0:
-                return NAN
+                raise NoRun  # the root of a negative number is ill-defined
             v = math.sqrt(a.v)
             if Fraction(v) ** 2 == Fraction(a.v):
                 return Bounded(v)
@@ -307,8 +276,6 @@ class _Float(_Kit):
 
     @staticmethod
     def out(x) -> float:
-        if isinstance(x, _Undefined):
-            raise NoRun
         b = _lift(x)
         if b.e == 0:
             if not math.isfinite(b.v):
@@ -329,8 +296,6 @@ class _Float(_Kit):
         """|value - command| <= tol in the reals, or command is the float the controller
         returns for value (its largest float <= value): decided in the filter only for an exact
         value, else by the exact pass."""
-        if isinstance(value, _Undefined):
-            return False
         v, c, t = _lift(value), _lift(command), _lift(tol)
         if v.e or c.e or t.e:
             raise Undecided
@@ -359,16 +324,16 @@ class _Exact(_Kit):
 
     @staticmethod
     def div(a, b):
-        if isinstance(a, _Undefined) or isinstance(b, _Undefined) or b == 0:
-            return NAN
+        if b == 0:
+            raise NoRun  # x / 0 is ill-defined: the model has no run through it
         if isinstance(a, Enclosure) or isinstance(b, Enclosure):
             return Enclosure._of(a) / b
         return Fraction(a) / b
 
     @staticmethod
     def sqrt(a):
-        if isinstance(a, _Undefined) or a < 0:
-            return NAN
+        if a < 0:
+            raise NoRun  # the root of a negative number is ill-defined
         if isinstance(a, Enclosure):
             if a.lo < 0:
                 raise NoRun  # the sign of the radicand is not decided: the caller falls back
@@ -381,8 +346,6 @@ class _Exact(_Kit):
 
     @staticmethod
     def out(x) -> float:
-        if isinstance(x, _Undefined):
-            raise NoRun
         q = x.lo if isinstance(x, Enclosure) else Fraction(x)
         if abs(q) > _MAX:
             raise NoRun  # the real value is beyond the float range
@@ -390,8 +353,6 @@ class _Exact(_Kit):
 
     @staticmethod
     def close(value, command, tol) -> bool:
-        if isinstance(value, _Undefined):
-            return False
         if isinstance(value, Enclosure):
             if value.hi - command <= tol and command - value.lo <= tol:
                 return True

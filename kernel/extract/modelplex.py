@@ -209,12 +209,15 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
         if isinstance(q, Havoc) and q.target.op == "var" and not q.target.sort.is_array \
                 and q.target.payload not in touched:
             name = q.target.payload
-            if name in cmd and name not in assigned_anywhere:
+            if name in cmd and name not in assigned_anywhere and not _pinned(Seq(tuple(parts)), name):
                 rest.append(Assign(q.target, Var(cmd[name], q.target.sort)))  # fixed by the output
+            elif name in cmd and name not in assigned_anywhere:
+                rest.append(q)  # solved from its equation, then matched with the command
             else:
                 hoisted.append(q)
             continue
-        rest.append(_fix_output_havocs(q, cmd))
+        rest.append(_fix_output_havocs(q, {o: c for o, c in cmd.items()
+                                           if not _pinned(Seq(tuple(parts)), o)}))
         touched |= set(written(q)) | _reads(q)
     match, closes = [], {}
     for o in outputs:
@@ -270,6 +273,17 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
         lines.append(text.replace("return __BLOCKED__", blocked))
     lines.append("    return True")
     return state, outputs, "\n".join(lines) + "\n"
+
+
+def _pinned(p: Program, name: str) -> bool:
+    """Some test of the step pins `name` by an equation (`?x = th + u*dt`): its value is solved
+    from it (exactly, in the reals), and the command is matched with that value within tol."""
+    from certiloop.kernel.extract.analysis import _conjuncts, _mentions
+
+    if isinstance(p, Test):
+        return any(a.op == "cmp" and a.payload == "==" and _mentions(a, name) for a in _conjuncts(p.cond))
+    parts = p.parts if isinstance(p, Seq) else p.alternatives if isinstance(p, Choice) else ()
+    return any(_pinned(q, name) for q in parts)
 
 
 def _fix_output_havocs(p: Program, cmd: dict[str, str]) -> Program:
