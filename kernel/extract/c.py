@@ -41,8 +41,11 @@ from certiloop.models.lang.theorem import Theorem
 def extract_c(theorem: Theorem) -> dict[str, str]:
     """{file name: text} of the C kernel: `<name>.h` and `<name>.c`. Raises ExtractError,
     with a one-line reason naming the model, for a shape it cannot write in C."""
+    from certiloop.kernel.extract.names import c_unsafe, generate_renamed
+
     try:
-        return _extract_c(theorem)
+        files = generate_renamed(theorem, lambda name: c_unsafe(name, c_name(theorem.name)), _extract_c)
+        return _python_names_in_macros(theorem, files)
     except ModelError as exc:
         message = " ".join(str(exc).split())
         if not message.startswith(f"{theorem.name}:"):
@@ -169,6 +172,29 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
               f"instead.\n   Model {theorem.name}, content hash {theorem.content_hash}; see {base}.h. */\n"
               f"#include <math.h>\n\n#include \"{base}.h\"\n{RUNTIME}\n" + "\n".join(body) + "\n")
     return {f"{base}.h": header, f"{base}.c": source}
+
+
+def _python_names_in_macros(theorem: Theorem, files: dict[str, str]) -> dict[str, str]:
+    """The header's INPUTS / FAMILIES / OUTPUTS macros name the symbols as the Python kernel does
+    (its INPUTS), whatever C had to rename (a C parameter `u_c` is the model's `c`)."""
+    import re
+
+    from certiloop.kernel.extract.names import PREFIX, c_unsafe, python_unsafe, renaming
+
+    base = c_name(theorem.name)
+    back = {new: old for old, new in renaming(theorem, lambda n: c_unsafe(n, base)).items()}
+    if not back:
+        return files
+
+    def name(word: str) -> str:
+        old = back.get(word, word)
+        return PREFIX + old if python_unsafe(old) else old
+
+    def macro(m: re.Match) -> str:
+        return m.group(1) + " ".join(name(w) for w in m.group(2).split()) + '"'
+
+    pattern = re.compile(rf'^(#define {base.upper()}_(?:INPUTS|FAMILIES|OUTPUTS) ")([^"]*)"', re.M)
+    return {k: pattern.sub(macro, v) if k.endswith(".h") else v for k, v in files.items()}
 
 
 def _doc(outputs, families, sizes) -> str:

@@ -15,6 +15,12 @@ from certiloop.models.lang.theorem import Theorem
 def extract(theorem: Theorem) -> str:
     """Python source of the model's control step (or algorithm): one function `controller`.
     Raises ExtractError, with a one-line reason, for a shape it cannot extract."""
+    from certiloop.kernel.extract.names import generate_renamed, python_unsafe
+
+    return generate_renamed(theorem, python_unsafe, _extract)
+
+
+def _extract(theorem: Theorem) -> str:
     try:
         step = _split(theorem)
         if _uses_families(step.parts) and not _families_only_tested(step.parts):

@@ -95,7 +95,14 @@ PLANT_PARAMS = {plant_params!r}  # values the plant reads that it does not evolv
 
 
 def monitors(theorem: Theorem) -> str:
-    """Python source of the monitor module of a model whose controller extracts."""
+    """Python source of the monitor module of a model whose controller extracts (a symbol named
+    like a Python keyword or a generated name is renamed as in the controller: names.py)."""
+    from certiloop.kernel.extract.names import generate_renamed, python_unsafe
+
+    return generate_renamed(theorem, python_unsafe, _monitors)
+
+
+def _monitors(theorem: Theorem) -> str:
     try:
         step = _split(theorem)
         src_controller = extract(theorem)
