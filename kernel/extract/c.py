@@ -222,5 +222,31 @@ def _doc(outputs, families, sizes) -> str:
     return "\n   ".join(rows) + " */"
 
 
+def compile_error(files: dict[str, str]) -> str | None:
+    """The first diagnostic of the C compiler on the generated files (with -Werror, under
+    -std=c99 and -std=c11), None where they compile or no compiler is on the PATH: the last
+    guard that extract never writes C that does not build."""
+    import subprocess
+    import tempfile
+    from pathlib import Path
+
+    from certiloop.kernel.extract.c_build import compiler
+
+    cc = compiler()
+    if cc is None:
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, text in files.items():
+            (Path(tmp) / name).write_text(text)
+        source = next(name for name in files if name.endswith(".c"))
+        for std in ("-std=c99", "-std=c11"):
+            flags = [f for f in CFLAGS if not f.startswith("-std=")] + [std, "-fsyntax-only"]
+            done = subprocess.run([cc, *flags, source], cwd=tmp, capture_output=True, text=True)
+            if done.returncode != 0 or done.stderr.strip():
+                lines = [line for line in done.stderr.splitlines() if "error" in line or "warning" in line]
+                return (lines or done.stderr.splitlines() or ["exit status " + str(done.returncode)])[0]
+    return None
+
+
 def c_flags() -> list[str]:
     return list(CFLAGS)

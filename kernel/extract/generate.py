@@ -17,7 +17,13 @@ def extract(theorem: Theorem) -> str:
     Raises ExtractError, with a one-line reason, for a shape it cannot extract."""
     from certiloop.kernel.extract.names import generate_renamed, python_unsafe
 
-    return generate_renamed(theorem, python_unsafe, _extract)
+    source = generate_renamed(theorem, python_unsafe, _extract)
+    try:  # the last guard that extract never returns Python that does not parse
+        compile(source, f"<extracted {theorem.name}>", "exec")
+    except SyntaxError as exc:
+        raise ExtractError(f"{theorem.name}: the generated Python does not parse ({exc.msg}, line "
+                           f"{exc.lineno}); please report it with the model") from None
+    return source
 
 
 def _extract(theorem: Theorem) -> str:

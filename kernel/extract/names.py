@@ -13,6 +13,7 @@ import builtins
 import keyword
 import re
 from dataclasses import replace
+from functools import lru_cache
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import Node, Var, free_vars, substitute
@@ -54,19 +55,28 @@ def python_unsafe(name: str) -> bool:
 
 
 def c_unsafe(name: str, base: str) -> bool:
-    """Unsafe in C: a keyword, a library name, a generated name (the runtime's `cl_*` helpers
-    are reached as `cl_<name>`, the outputs as `out_<name>`, the lengths as `n_<sort>`), or
-    anything a C compiler reserves (`__x`, `_X`)."""
-    from certiloop.kernel.extract.c_certified import RUNTIME
+    """Unsafe in C: a keyword, a library name, a name whose local copy `cl_<name>` the runtime or
+    the generators write themselves (cl_t, cl_lower, cl_add), an output's `out_<name>`, a length
+    `n_<sort>`, the entry's prefix, or anything a C compiler reserves (`__x`, `_X`). Not i and j:
+    the model's own index of a family is its loop variable, and a scalar's cl_i is shadowed only
+    by the range checks' own loop counters, which read nothing else."""
     from certiloop.kernel.extract.c_syntax import C_RESERVED
 
-    runtime = set(re.findall(r"\bcl_(\w+)", RUNTIME))  # `cl_<name>` would be a runtime name
-    # i and j: the model's own index of a family may be its loop variable; a scalar `i` becomes
-    # cl_i, which only the range checks' own loop counters shadow
-    generated = re.fullmatch(r"c\d+|hi|lo|r|rc|careful", name) is not None  # cl_c0, cl_hi, cl_r, ...
-    return (name in C_RESERVED - {"i", "j"} or name in C_LIBRARY or name in runtime or generated
+    return (name in C_RESERVED - {"i", "j"} or name in C_LIBRARY or name in _c_generated() - {"i", "j"}
+            or name in ("rc", "careful") or re.fullmatch(r"c\d+", name) is not None  # cl_c0: a choice's flag
             or name.startswith(("_", PREFIX, "cl_", "CL_", "out_", "n_", f"{base}_", f"{base.upper()}_"))
             or _python_unsafe(name, set()) or not re.fullmatch(r"[A-Za-z_]\w*", name))
+
+
+@lru_cache(maxsize=1)
+def _c_generated() -> frozenset[str]:
+    """Every x of a `cl_x` the C runtime or the C generators write themselves."""
+    import inspect
+
+    from certiloop.kernel.extract import c, c_certified, c_family, c_scalar
+
+    text = c_certified.RUNTIME + "".join(inspect.getsource(m) for m in (c, c_certified, c_family, c_scalar))
+    return frozenset(re.findall(r"\bcl_(\w+)", text))
 
 
 def renaming(theorem: Theorem, unsafe) -> dict[str, str]:
