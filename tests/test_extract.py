@@ -9,9 +9,9 @@ every alternative and the edges between them, plus seeded random ones.
 """
 
 import math
-from fractions import Fraction
 import subprocess
 import sys
+from fractions import Fraction
 
 import numpy as np
 import pytest

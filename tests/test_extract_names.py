@@ -113,7 +113,8 @@ def test_cli_extract_c_with_t_and_lower_compiles(tmp_path, monkeypatch):
         "from certiloop.models.lang.terms import Reals\n"
         "from certiloop.models.lang.theorem import Theorem\n\n"
         "p, t, lower, a = Reals('p t lower a')\n"
-        "step = choice(branch('stop', check(p >= t), assign(a, 0)), branch('go', check(p < t), assign(a, lower)))\n"
+        "step = choice(branch('stop', check(p >= t), assign(a, 0)),\n"
+        "              branch('go', check(p < t), assign(a, lower)))\n"
         "MODEL = Theorem('tests.t_lower', lower >= 0, loop(seq(step, ode({p: a}))), lower >= 0)\n")
     out = tmp_path / "c"
     done = subprocess.run(["certiloop", "extract", f"{model}:MODEL", "--lang", "c", "-o", str(out)],

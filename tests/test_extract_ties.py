@@ -22,7 +22,8 @@ from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.interpreter import Interpreter
 from certiloop.kernel.extract.modelplex import monitors
 from certiloop.models import library
-from certiloop.models.lang.terms import BOOL, INT, REAL, free_vars
+from certiloop.models.lang.terms import INT, REAL, free_vars
+
 
 def _source(name: str) -> str:
     from certiloop.kernel.extract import extract

@@ -30,7 +30,8 @@ C_LIBRARY = {
     "hypot", "ilogb", "ldexp", "lgamma", "llrint", "llround", "log", "log10", "log1p", "log2", "logb",
     "lrint", "lround", "modf", "nan", "nearbyint", "nextafter", "nexttoward", "pow", "remainder", "remquo",
     "rint", "round", "scalbln", "scalbn", "sin", "sinh", "sqrt", "tan", "tanh", "tgamma", "trunc",
-    "isfinite", "isinf", "isnan", "isnormal", "signbit", "fpclassify", "isgreater", "isless", "math_errhandling",
+    "isfinite", "isinf", "isnan", "isnormal", "signbit", "fpclassify", "isgreater", "isless",
+    "math_errhandling",
     "INFINITY", "NAN", "HUGE_VAL", "HUGE_VALF", "HUGE_VALL", "M_PI", "M_E", "FP_NAN", "FP_INFINITE",
     "FP_ZERO", "FP_NORMAL", "FP_SUBNORMAL", "MATH_ERRNO", "MATH_ERREXCEPT", "float_t", "double_t",
     "size_t", "ptrdiff_t", "wchar_t", "max_align_t", "NULL", "offsetof", "main", "errno", "abs", "labs",
@@ -120,7 +121,8 @@ def renamed(theorem: Theorem, mapping: dict[str, str]) -> Theorem:
         if isinstance(p, Choice):
             return replace(p, alternatives=tuple(program(q) for q in p.alternatives))
         if isinstance(p, Loop):
-            each = p.each and replace(p.each, **{f: term(getattr(p.each, f)) for f in ("index", "done", "member")})
+            each = p.each and replace(p.each, index=term(p.each.index), done=term(p.each.done),
+                                      member=term(p.each.member))
             count = p.count and replace(p.count, counter=term(p.count.counter), limit=term(p.count.limit))
             return replace(p, body=program(p.body), invariant=term(p.invariant), each=each, count=count)
         if isinstance(p, ODE):
