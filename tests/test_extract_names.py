@@ -21,7 +21,8 @@ from certiloop.models.lang.terms import Reals
 from certiloop.models.lang.theorem import Theorem
 
 NAMES = ["t", "lower", "sin", "exp", "main", "add", "c", "out_a", "u_t", "cl_t", "n_B", "rc", "careful",
-         "lambda", "class", "None", "double", "int", "taken", "np", "_step", "x_dot", "t1", "case_a"]
+         "lambda", "class", "None", "double", "int", "taken", "np", "_step", "x_dot", "t1", "case_a",
+         "state", "command", "math"]
 
 
 def _model(names: list[str]) -> Theorem:
@@ -38,7 +39,7 @@ def _decide(values: dict) -> Fraction:
     return -F["d"] if F["g"] - F["p"] <= F["s"] * F["e"] else F["m"]
 
 
-SETS = [NAMES[i:i + 7] for i in range(0, len(NAMES) - 6, 3)]
+SETS = [(NAMES * 2)[i:i + 7] for i in range(0, len(NAMES), 3)]  # every name, in sets of 7
 ROLES = ["p", "g", "s", "e", "d", "m", "a"]
 
 

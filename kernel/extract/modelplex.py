@@ -12,10 +12,13 @@ path's tests, the solved roots of its equations included, hold and its outputs m
 nondeterministic `o := *` of an output inside the step is the existential the command fixes
 (`o := cmd_o`); other `x := *` are solved from the equations that pin them (every root is
 a path) or, where only inequalities read them, are state the caller gives, as for the
-extracted controller. tol = 0 compares exactly with the value the model's own term gives
-in float64 (what the extracted controller returns passes bit for bit); tol > 0 also admits a
-command within tol of such a value; Int and Bool values compare exactly (1.5 is no Int).
-Guards are evaluated in float64 like the controller's (not rounded outwards).
+extracted controller. tol = 0 admits exactly the model's real value, or the float the
+extracted controller returns for it (the largest float at most it); tol > 0 also admits a
+command within tol of the real value; Int and Bool values compare exactly (1.5 is no Int).
+Guards are decided as in the extracted controller (`certiloop.kernel.decide`): the real
+model's decision on the float values, so rounding never admits a command; the module carries
+that runtime's source (it imports nothing of certiloop). An output the step pins by an
+equation is solved from it and matched with the command like any other output.
 A step over a family of boundaries (`foreach` with `k := min(k, kt)`) has its own monitor
 (modelplex_family.py): the boundaries' choices are independent, so k passes iff no boundary
 forces kt below k − tol and k0 or some boundary can give k within tol. A step that reads

@@ -52,7 +52,8 @@ def _python_unsafe(name: str, reserved: set[str]) -> bool:
 def python_unsafe(name: str) -> bool:
     from certiloop.kernel.extract.template import RESERVED
 
-    return _python_unsafe(name, RESERVED)
+    # and the controller monitor's own parameters and modules
+    return _python_unsafe(name, RESERVED | {"state", "command", "math", "types"})
 
 
 def c_unsafe(name: str, base: str) -> bool:
