@@ -8,7 +8,8 @@ PACKAGES = ("models", "proofs", "falsify", "kernel", "testing", "cli", "api", "s
 GENERIC = ("certiloop.models", "certiloop.proofs", "certiloop.falsify", "certiloop.kernel",
            "certiloop.testing", "certiloop.cli", "certiloop.api")
 # what runs in a control loop: the runtime support and the case studies' kernels
-RUNTIME = ("certiloop.kernel.filtered", "certiloop.studies.sbs.fixture", "certiloop.studies.sbs.monitor",
+RUNTIME = ("certiloop.kernel.filtered", "certiloop.kernel.decide", "certiloop.studies.sbs.fixture",
+           "certiloop.studies.sbs.monitor",
            "certiloop.studies.sbs.native", "certiloop.studies.sbs.generated", "certiloop.studies.rcm.kernel",
            "certiloop.studies.rcm.arm", "certiloop.studies.rcm.cloud", "certiloop.studies.rcm.dynamics",
            "certiloop.studies.rcm.generated", "certiloop.studies.raven.arm",

@@ -77,7 +77,14 @@ def run(args: argparse.Namespace) -> int:
               file=sys.stderr)
         return EXIT_FAILED
     if args.lang == "c":
+        from certiloop.kernel.extract.c.emit import compile_error
+
         files = extract_c(theorem)
+        problem = compile_error(files)
+        if problem is not None:
+            print(f"certiloop: error: the C generated for {theorem.name} does not compile ({problem}); "
+                  "nothing was written: please report it with the model", file=sys.stderr)
+            return EXIT_FAILED
         folder = Path(args.output)
         folder.mkdir(parents=True, exist_ok=True)
         for name, text in files.items():

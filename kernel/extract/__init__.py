@@ -15,9 +15,14 @@ Two code shapes, each documented in the generated module's docstring:
   * a step over a family of boundaries (a `foreach`, or reads of families) is vectorised
     with numpy over the family, one mask per alternative of each choice (the shape of the
     shipped `studies/sbs/generated/ctrl2.py`);
-  * everything else (scalar controllers, algorithms) is plain scalar Python with `if`/`elif`
-    chains and `for` loops; reals are converted to numpy float64 on entry, so a division by
-    zero or an overflow gives inf/NaN (reported as "no run"), never an exception.
+  * everything else (scalar controllers, algorithms) is scalar Python with `if`/`elif`
+    chains and `for` loops, one pass over a number kit (`certiloop.kernel.decide`): floats with
+    a rigorous error bound, then exact rationals where a comparison is a near tie, so every
+    decision is the real model's; a division by zero, a non-finite input or an output beyond
+    the float range is "no run", never an exception.
+
+Symbols that are keywords, C library names or look like generated names are renamed
+`u_<name>` before generation (`names`).
 
 Every generated module has the header MODEL, MODEL_HASH, INPUTS (scalar parameters),
 FAMILIES (array parameters) and one entry function `controller(...)` returning
@@ -56,12 +61,13 @@ The package, one job a module (no module imports one listed after it):
   * vectorised — the numpy code over a family of boundaries;
   * scalar — the plain Python code (`if`/`elif`, `for` loops);
   * generate — `extract`: choose the shape, generate, name the model in every refusal;
+  * names — the injective renaming of symbols the generated Python or C cannot use as they are;
   * shipped — the case studies' generated kernels (`shipped()`), `shipped_drift` and `regenerate`;
-  * c_syntax, c_certified, c_family, c_scalar, c — `extract_c` (`--lang c`): the same walk
+  * c/ (syntax, certified, family, scalar, emit) — `extract_c` (`--lang c`): the same walk
     written as C99 (a `for` loop over the boundaries for a family, `if`/`else if` chains for
     choices), every decision certified by the filter of `certified` (three-valued, UNDECIDED
     where the floats cannot decide);
-  * c_build — tooling: compile a C kernel and call it through ctypes (tests, benchmarks);
+  * c/build — tooling: compile a C kernel and call it through ctypes (tests, benchmarks);
   * monitor_terms — what the monitors share: MonitorError, a term as Python over a dict;
   * modelplex_family — the controller monitor of a step over a family of boundaries;
   * modelplex — `monitors(theorem)`: the ModelPlex-style controller and plant monitors of an

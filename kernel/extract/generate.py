@@ -15,6 +15,18 @@ from certiloop.models.lang.theorem import Theorem
 def extract(theorem: Theorem) -> str:
     """Python source of the model's control step (or algorithm): one function `controller`.
     Raises ExtractError, with a one-line reason, for a shape it cannot extract."""
+    from certiloop.kernel.extract.names import generate_renamed, python_unsafe
+
+    source = generate_renamed(theorem, python_unsafe, _extract)
+    try:  # the last guard that extract never returns Python that does not parse
+        compile(source, f"<extracted {theorem.name}>", "exec")
+    except SyntaxError as exc:
+        raise ExtractError(f"{theorem.name}: the generated Python does not parse ({exc.msg}, line "
+                           f"{exc.lineno}); please report it with the model") from None
+    return source
+
+
+def _extract(theorem: Theorem) -> str:
     try:
         step = _split(theorem)
         if _uses_families(step.parts) and not _families_only_tested(step.parts):

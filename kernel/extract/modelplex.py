@@ -12,10 +12,13 @@ path's tests, the solved roots of its equations included, hold and its outputs m
 nondeterministic `o := *` of an output inside the step is the existential the command fixes
 (`o := cmd_o`); other `x := *` are solved from the equations that pin them (every root is
 a path) or, where only inequalities read them, are state the caller gives, as for the
-extracted controller. tol = 0 compares exactly with the value the model's own term gives
-in float64 (what the extracted controller returns passes bit for bit); tol > 0 also admits a
-command within tol of such a value; Int and Bool values compare exactly (1.5 is no Int).
-Guards are evaluated in float64 like the controller's (not rounded outwards).
+extracted controller. tol = 0 admits exactly the model's real value, or the float the
+extracted controller returns for it (the largest float at most it); tol > 0 also admits a
+command within tol of the real value; Int and Bool values compare exactly (1.5 is no Int).
+Guards are decided as in the extracted controller (`certiloop.kernel.decide`): the real
+model's decision on the float values, so rounding never admits a command; the module carries
+that runtime's source (it imports nothing of certiloop). An output the step pins by an
+equation is solved from it and matched with the command like any other output.
 A step over a family of boundaries (`foreach` with `k := min(k, kt)`) has its own monitor
 (modelplex_family.py): the boundaries' choices are independent, so k passes iff no boundary
 forces kt below k − tol and k0 or some boundary can give k within tol. A step that reads
@@ -64,7 +67,7 @@ from certiloop.kernel.extract.errors import ExtractError, _brief
 from certiloop.kernel.extract.generate import extract
 from certiloop.kernel.extract.modelplex_family import family_controller_monitor
 from certiloop.kernel.extract.monitor_terms import MonitorError, _conv, _fresh, _symbols, _term
-from certiloop.kernel.extract.scalar import _Python
+from certiloop.kernel.extract.scalar import KIT, STEP, _Python
 from certiloop.kernel.extract.shapes import _latches
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, And, ModelError, Node, Var, free_vars
@@ -81,6 +84,7 @@ ModelPlex-style monitors of `{model}` ({description}), generated from the model'
 """
 
 import math
+import types
 
 import numpy as np
 
@@ -94,7 +98,14 @@ PLANT_PARAMS = {plant_params!r}  # values the plant reads that it does not evolv
 
 
 def monitors(theorem: Theorem) -> str:
-    """Python source of the monitor module of a model whose controller extracts."""
+    """Python source of the monitor module of a model whose controller extracts (a symbol named
+    like a Python keyword or a generated name is renamed as in the controller: names.py)."""
+    from certiloop.kernel.extract.names import generate_renamed, python_unsafe
+
+    return generate_renamed(theorem, python_unsafe, _monitors)
+
+
+def _monitors(theorem: Theorem) -> str:
     try:
         step = _split(theorem)
         src_controller = extract(theorem)
@@ -108,7 +119,23 @@ def monitors(theorem: Theorem) -> str:
     src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
                         state=state, command=command, plant_state=plant_state, plant_params=plant_params,
                         plant_how=plant_how)
-    return src + "\n" + ctrl_code + "\n" + plant_code + "\n" + RUNTIME
+    runtime = RUNTIME + (_decide_runtime() if "_decide." in ctrl_code else "")
+    return src + "\n" + ctrl_code + "\n" + plant_code + "\n" + runtime
+
+
+def _decide_runtime() -> str:
+    """The float-sound decisions' runtime (certiloop.kernel.decide: numpy and the standard
+    library only), carried in the monitor module so that it imports nothing of certiloop."""
+    import inspect
+
+    from certiloop.kernel import decide
+
+    source = inspect.getsource(decide)
+    assert "'''" not in source and "\\" not in source  # it fits in a raw triple-quoted string
+    return ("\n\n# certiloop.kernel.decide, the runtime of the controller monitor's decisions\n"
+            "_DECIDE_SOURCE = r'''" + source + "'''\n"
+            "_decide = types.ModuleType('_decide')\n"
+            "exec(compile(_DECIDE_SOURCE, '<certiloop.kernel.decide>', 'exec'), _decide.__dict__)\n")
 
 
 # --------------------------------------------------------------------------- controller monitor
@@ -182,7 +209,7 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
         if not _deterministic(Seq(tuple(parts))):
             raise MonitorError("the step has loops and nondeterministic choices: no monitor")
         return _rerun_monitor(controller_src, outputs)
-    taken = set(symbols) | {"tol", "state", "command", "math", "np"}
+    taken = set(symbols) | {"tol", "state", "command", "math", "np", KIT, "_decide", "_controller_monitor"}
     tol = _fresh(taken, "tol")
     cmd = {o: _fresh(taken, f"cmd_{o}") for o in outputs}
     # leading `x := *` that no earlier statement touches: the controller's inputs (hoisted)
@@ -192,21 +219,26 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
         if isinstance(q, Havoc) and q.target.op == "var" and not q.target.sort.is_array \
                 and q.target.payload not in touched:
             name = q.target.payload
-            if name in cmd and name not in assigned_anywhere:
+            if name in cmd and name not in assigned_anywhere and not _pinned(Seq(tuple(parts)), name):
                 rest.append(Assign(q.target, Var(cmd[name], q.target.sort)))  # fixed by the output
+            elif name in cmd and name not in assigned_anywhere:
+                rest.append(q)  # solved from its equation, then matched with the command
             else:
                 hoisted.append(q)
             continue
-        rest.append(_fix_output_havocs(q, cmd))
+        rest.append(_fix_output_havocs(q, {o: c for o, c in cmd.items()
+                                           if not _pinned(Seq(tuple(parts)), o)}))
         touched |= set(written(q)) | _reads(q)
-    match = []
+    match, closes = [], {}
     for o in outputs:
         s = symbols[o].sort
         if s.is_array:
             raise MonitorError(f"the output `{o}` is an array and the step is not deterministic: no monitor")
         o_var, c_var = Var(o, s), Var(cmd[o], s)
-        if s == REAL:
-            match += [o_var - c_var <= Var(tol, REAL), c_var - o_var <= Var(tol, REAL)]
+        if s == REAL:  # |o - c| <= tol in the reals, or c the float the controller returns for o
+            atom = o_var - c_var <= Var(tol, REAL)
+            closes[atom.key] = (o_var, c_var, Var(tol, REAL))
+            match.append(atom)
         else:
             match.append(o_var == c_var)
     body = Seq((*rest, Test(And(*match))))
@@ -214,6 +246,7 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
     live = set(outputs) | {"__ok"}
     py = _Python({**symbols, tol: Var(tol, REAL), **{c: Var(c, symbols[o].sort) for o, c in cmd.items()}},
                  live, Seq(tuple(program)))
+    py.kit, py.closes = KIT, closes
     try:
         py.block(program)
     except ExtractError as exc:
@@ -221,9 +254,16 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
     state = [p for p in py.params if p not in cmd.values() and p != tol]
     lines = ["def controller_monitor(state, command, tol=0.0):",
              '    """True iff some run of the control step from `state` ends with `command` (reals',
-             '    within tol). state: a dict with the keys STATE; command: a dict with the keys COMMAND."""',
-             f"    {tol} = np.float64(tol)",
-             f"    if not ({tol} >= 0.0):",
+             "    within tol in the reals, or the float the extracted controller returns). state: a dict",
+             "    with the keys STATE; command: a dict with the keys COMMAND. Every decision is the real",
+             "    model's on these float values (exact rationals): floats with a rigorous error bound,",
+             '    exact rationals where the bound cannot decide; undecidable there: False."""',
+             "    return _decide.run(_controller_monitor, False, state, command, tol)",
+             "",
+             "",
+             f"def _controller_monitor({KIT}, state, command, tol):",
+             f"    {tol} = {KIT}.real(tol)",
+             f"    if not ({tol} >= {KIT}.c(0)):",
              "        return False"]
     entries = [(v, f"state[{v!r}]", symbols[v].sort) for v in state]
     entries += [(c, f"command[{o!r}]", symbols[o].sort) for o, c in cmd.items()]
@@ -233,16 +273,27 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
             lines.append(f"    if {v} is None:")
             lines.append("        return False")
             continue
-        lines.append(f"    {v} = {_conv(sort)}({source})")
-        if sort == REAL and source.startswith("command"):
-            lines.append(f"    if not np.isfinite({v}):")
-            lines.append("        return False")
+        # a non-finite real is outside the model's domain: no run, False
+        real = sort == REAL or sort.is_array and sort.range == REAL
+        conv = (KIT + ".real" if sort == REAL else KIT + ".array") if real else _conv(sort)
+        lines.append(f"    {v} = {conv}({source})")
     lines.append("    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):")
     blocked = "return False"
     for text in py.lines:
         lines.append(text.replace("return __BLOCKED__", blocked))
     lines.append("    return True")
     return state, outputs, "\n".join(lines) + "\n"
+
+
+def _pinned(p: Program, name: str) -> bool:
+    """Some test of the step pins `name` by an equation (`?x = th + u*dt`): its value is solved
+    from it (exactly, in the reals), and the command is matched with that value within tol."""
+    from certiloop.kernel.extract.analysis import _conjuncts, _mentions
+
+    if isinstance(p, Test):
+        return any(a.op == "cmp" and a.payload == "==" and _mentions(a, name) for a in _conjuncts(p.cond))
+    parts = p.parts if isinstance(p, Seq) else p.alternatives if isinstance(p, Choice) else ()
+    return any(_pinned(q, name) for q in parts)
 
 
 def _fix_output_havocs(p: Program, cmd: dict[str, str]) -> Program:
@@ -265,6 +316,9 @@ def _rerun_monitor(controller_src: str, outputs: list[str]) -> tuple[list, list,
     fn = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "controller")
     params = [a.arg for a in fn.args.args]
     source = ast.get_source_segment(controller_src, fn)
+    for helper in tree.body:  # the one pass the entry runs with each number kit
+        if isinstance(helper, ast.FunctionDef) and helper.name == STEP:
+            source += "\n\n\n" + ast.get_source_segment(controller_src, helper)
     imports = "import operator\n\n" if "operator." in source else ""
     lines = [imports + source.replace("def controller(", "def _controller(", 1), "",
              "def controller_monitor(state, command, tol=0.0):",

@@ -30,6 +30,8 @@ from certiloop.models.lang.theorem import Theorem
 MAX_PATHS = 512  # alternatives after flattening nested choices
 
 BLOCKED = "return __BLOCKED__"  # replaced once the outputs are known
+KIT = "_R"  # the generated step's number kit (certiloop.kernel.decide)
+STEP = "_step"  # the generated one-pass function the entry runs with each kit
 
 
 @dataclass
@@ -71,6 +73,11 @@ class _Python:
         self.loops: list[tuple[str, Node, Node]] = []  # enclosing for loops (counter, lo, hi)
         self.taken: set[str] = set(symbols) | RESERVED
         self.elementwise: str | None = None  # the bound index inside a `∀j` over the boundaries
+        # the number kit the reals are written over (certiloop.kernel.decide: a float filter with
+        # error bounds, then exact rationals); None: plain float64
+        self.kit: str | None = None
+        # comparisons `o - c <= tol` a monitor writes as `kit.close(o, c, tol)` (key -> (o, c, tol))
+        self.closes: dict = {}
 
     def line(self, text: str) -> None:
         self.lines.append("    " * self.depth + text)
@@ -102,6 +109,9 @@ class _Python:
             v = n.payload
             if v.denominator == 1 and n.sort == INT and not real:
                 return str(int(v))
+            if self.kit is not None:  # an exact rational, whatever float it is nearest to
+                return f"{self.kit}.c({v.numerator})" if v.denominator == 1 else \
+                    f"{self.kit}.c({v.numerator}, {v.denominator})"
             return repr(float(v)) if v.denominator != 1 else f"{int(v)}.0"
         if op == "true":
             return "True"
@@ -130,6 +140,9 @@ class _Python:
             self.array_reads.add(root)
             self.read(root)
             return f"{root}[{', '.join(idx)}]"
+        if op == "cmp" and n.key in self.closes:
+            o, c, tol = (self.code(x, subst, True) for x in self.closes[n.key])
+            return f"{self.kit}.close({o}, {c}, {tol})"
         if op == "cmp":
             r = any(a.sort == REAL for a in n.args)
             a = [self.code(x, subst, r) for x in n.args]
@@ -144,14 +157,14 @@ class _Python:
             if op == "neg":
                 return f"(-{a[0]})"
             if op == "/":
-                return f"({a[0]} / {a[1]})"
+                return f"{self.kit}.div({a[0]}, {a[1]})" if self.kit else f"({a[0]} / {a[1]})"
             return _power(a[0], n.payload)
         if op == "forall" and self.elementwise is None and len(n.payload) == 1 \
                 and _is_index_sort(n.payload[0].sort):
             return self.over_family(n, subst)
         a = [self.code(x, subst) for x in n.args]
         if self.elementwise is not None and op in ("and", "or", "not", "implies", "iff"):
-            return _elementwise(op, a)
+            return _elementwise(op, a) if self.kit is None else _logical(op, a)
         if op == "and":
             return "(" + " and ".join(a) + ")" if a else "True"
         if op == "or":
@@ -181,6 +194,14 @@ class _Python:
         c = [self.code(p, subst, True) for p in root.parts]
         if root.kind == "value":
             return c[0]
+        if self.kit is not None:
+            k = self.kit
+            if root.kind == "sqrt+":
+                return f"{k}.sqrt({c[0]})"
+            if root.kind == "sqrt-":
+                return f"(-{k}.sqrt({c[0]}))"
+            sign = "+" if root.kind == "quad+" else "-"
+            return f"{k}.div(((-{c[0]}) {sign} {k}.sqrt({c[1]})), ({k}.c(2) * {c[2]}))"
         if root.kind == "sqrt+":
             return f"np.sqrt({c[0]})"
         if root.kind == "sqrt-":
@@ -462,6 +483,20 @@ class _Python:
         return out
 
 
+def _logical(op: str, a: list[str]) -> str:
+    """A connective over numpy arrays of truth values (object arrays where the kit's values
+    compare elementwise: `~` would be the integer inversion of a Python bool there)."""
+    if op == "and":
+        return "(" + " & ".join(f"np.asarray({x}, dtype=bool)" for x in a) + ")" if a else "True"
+    if op == "or":
+        return "(" + " | ".join(f"np.asarray({x}, dtype=bool)" for x in a) + ")" if a else "False"
+    if op == "not":
+        return f"np.logical_not(np.asarray({a[0]}, dtype=bool))"
+    if op == "implies":
+        return f"(np.logical_not(np.asarray({a[0]}, dtype=bool)) | np.asarray({a[1]}, dtype=bool))"
+    return f"(np.asarray({a[0]}, dtype=bool) == np.asarray({a[1]}, dtype=bool))"
+
+
 def _python(theorem: Theorem, step: "_Step") -> str:
     parts = list(step.parts)
     symbols = {**free_vars(theorem.assumptions), **theorem.program.symbols(), **free_vars(theorem.guarantee)}
@@ -473,11 +508,13 @@ def _python(theorem: Theorem, step: "_Step") -> str:
         live |= set(rates)
         symbols.update((r, Var(r, REAL)) for r in rates)
     py = _Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
+    py.kit = KIT
     py.block(parts)
     latches = _latches(parts, py.params) if step.where in ("before", "after") else set()
     if latches - live:  # a value the step reads and sets (`stopped := 1`): the next step needs it
         live |= latches
         py = _Python(symbols, live, Seq(tuple(parts)))
+        py.kit = KIT
         py.block(parts)
     if py.pinned & set(py.inputs):
         both = sorted(py.pinned & set(py.inputs))
@@ -504,42 +541,48 @@ def _python(theorem: Theorem, step: "_Step") -> str:
         allocated[name] = f"({dims[0]},)" if len(dims) == 1 else f"({', '.join(dims)})"
     params = scalars + arrays  # scalars first, then arrays
     what = "algorithm" if step.where == "algorithm" else "discrete controller"
-    imports = "import operator\n\nimport numpy as np" if any(sort(v) == INT for v in scalars) else \
-        "import numpy as np"
+    imports = "import numpy as np\n\nfrom certiloop.kernel import decide as _decide"
+    if any(sort(v) == INT for v in scalars):
+        imports = "import operator\n\n" + imports
     src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
                         inputs=scalars, families=arrays, what=what, how=SCALAR[step.where], imports=imports)
     src += f"\n\ndef {ENTRY}({', '.join(params)}):\n"
     admitted = not rates and all(v in py.inputs for v in outputs)
     src += _python_doc(outputs, step.where, admitted, scalars, sort, allocated,
                        [a for a in arrays if a in py.array_writes])
+    blocked = ", ".join(["np.nan"] * len(outputs) + ["False"])
+    src += f"    return _decide.run({STEP}, ({blocked}){''.join(', ' + p for p in params)})\n"
+    src += f"\n\ndef {STEP}({', '.join([KIT, *params])}):\n"
+    src += (f'    """One pass of the step over the number kit {KIT}: the float filter (raises '
+            'Undecided where\n    a decision is not certain) or exact rationals."""\n')
     for v in scalars:
         s = sort(v)
-        conv = "np.float64" if s == REAL else "operator.index" if s == INT else "bool"
+        conv = f"{KIT}.real" if s == REAL else "operator.index" if s == INT else "bool"
         src += f"    {v} = {conv}({v})\n"
     for v in arrays:
+        if sort(v).range == REAL:
+            src += f"    {v} = {KIT}.array({v})\n"
+            continue
         make = "np.array" if v in py.array_writes else "np.asarray"  # a copy where the step writes
         src += f"    {v} = {make}({v}, dtype={_dtype(sort(v).range)})\n"
     for v, shape in allocated.items():
-        src += f"    {v} = np.zeros({shape}, dtype={_dtype(sort(v).range)})\n"
+        if sort(v).range == REAL:
+            src += f"    {v} = {KIT}.zeros({shape})\n"
+        else:
+            src += f"    {v} = np.zeros({shape}, dtype={_dtype(sort(v).range)})\n"
     body = py.lines or ["        pass"]
     src += "    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):\n"
-    blocked = ", ".join(["np.nan"] * len(outputs) + ["False"])
     for line in body:
         src += line.replace("__BLOCKED__", blocked) + "\n"
-    values, finite = [], []
+    values = []
     for v in outputs:
         s = sort(v)
         if s.is_array:
-            values.append(v)
-            if s.range == REAL:
-                finite.append(f"bool(np.all(np.isfinite({v})))")
+            values.append(f"{KIT}.out_array({v})" if s.range == REAL else v)
         else:
-            values.append(f"{'float' if s == REAL else 'int' if s == INT else 'bool'}({v})")
-            if s == REAL:
-                finite.append(f"bool(np.isfinite({v}))")
-    if finite:
-        src += "    # floating-point overflow is no run the proof covers\n"
-    src += f"    return {', '.join(values)}, {' and '.join(finite) or 'True'}\n"
+            values.append(f"{KIT}.out({v})" if s == REAL else f"{'int' if s == INT else 'bool'}({v})")
+    src += "    # a real output: the largest float <= its real value (none beyond the float range: no run)\n"
+    src += f"    return {', '.join(values)}, True\n"
     return src
 
 
@@ -560,8 +603,11 @@ def _python_doc(outputs: list[str], where: str, admitted: bool, scalars: list[st
              + "; the other values are then NaN and the caller must fall back."]
     conversions = []
     if any(sort(v) == REAL for v in scalars):
-        conversions.append("Real parameters are converted to numpy float64: a division by zero or an "
-                           "overflow gives inf/NaN (reported as enabled = False), never an exception.")
+        conversions.append("Every decision is the real model's on the float inputs (exact rationals): "
+                           "taken in floats with a rigorous error bound, and with exact rationals where "
+                           "the bound cannot decide. A non-finite input, a division by zero the model "
+                           "does not guard, or a real output beyond the float range is no run "
+                           "(enabled = False), never an exception.")
     if any(sort(v) == INT for v in scalars):
         conversions.append("Int parameters must be integers.")
     if conversions:

@@ -49,7 +49,8 @@ ENTRY = "controller"
 
 # names the generated code uses itself
 RESERVED = set(keyword.kwlist) | {"np", "operator", "enabled", "taken", "skipped", ENTRY, "float", "int",
-                                  "bool", "range", "max", "MODEL", "MODEL_HASH", "INPUTS", "FAMILIES"}
+                                  "bool", "range", "max", "_R", "_step", "_decide", "MODEL", "MODEL_HASH",
+                                  "INPUTS", "FAMILIES"}
 
 
 MAX_POWER = 8  # x^n up to this n is written as n - 1 multiplications

@@ -414,6 +414,6 @@ def _check_extracted() -> None:
     current = library.get(ctrl2.MODEL).content_hash
     if current != ctrl2.MODEL_HASH:
         raise RuntimeError(f"studies/sbs/generated/ctrl2.py was extracted from an older {ctrl2.MODEL} (hash "
-                           f"{ctrl2.MODEL_HASH}, now {current}); run `certiloop extract {ctrl2.MODEL} "
-                           "-o studies/sbs/generated/ctrl2.py`")
+                           f"{ctrl2.MODEL_HASH}, now {current}); run "
+                           "`python -m certiloop.studies regenerate`")
     _checked = True

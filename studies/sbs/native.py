@@ -1,4 +1,4 @@
-"""The compiled virtual-fixture step: kernel/c (the C that `certiloop extract sbs.ctrl2
+"""The compiled virtual-fixture step: generated/c (the C that `certiloop extract sbs.ctrl2
 --lang c` generated, behind its C monitor) built once into a shared library and called
 through cffi (ABI mode: no extension module to build; a call costs ~1 µs where ctypes takes
 ~4), so that `VirtualFixture.step` costs microseconds instead of hundreds of numpy calls.

@@ -9,6 +9,7 @@ short. The models already covered there (sbs.*, cfmpa.builtdr, textbook.*) are n
 """
 
 import math
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -132,7 +133,10 @@ def test_rcm_axial_guard_limits_the_command():
         wcmd = rng.choice([0.0, rng.uniform(-1, 1), (gap - m) / eps])
         state = {"gap": gap, "m": m, "eps": eps, "wcmd": wcmd}
         (w,), _ = check_scalar("rcm.axial_guard", state, ["wcmd"])
-        assert w == (wcmd if eps * wcmd <= gap - m else (gap - m) / eps)  # by hand
+        # by hand, in the reals: the code returns the largest float <= the model's value
+        F = Fraction
+        want = F(wcmd) if F(eps) * F(wcmd) <= F(gap) - F(m) else (F(gap) - F(m)) / F(eps)
+        assert F(w) <= want < F(math.nextafter(w, math.inf))
         assert gap - eps * w >= m - 1e-12  # the margin holds after one period
 
 

@@ -83,12 +83,14 @@ class Kernel:
         if len(given) != len(args) or len(args) != len(self.inputs) + len(self.families):
             raise TypeError(f"{self.base}_controller takes {self.inputs + self.families}")
         length = len(np.atleast_1d(given[self.families[0]])) if self.families else 0
+        # in the prototype's order, which is INPUTS then FAMILIES (a C parameter may be renamed)
+        scalars, families = iter(args[:len(self.inputs)]), iter(args[len(self.inputs):])
         call, keep, outs = [], [], []
         for kind, ctype, name in self.params:
             if kind == "scalar":
-                call.append(given[name])
+                call.append(next(scalars))
             elif kind == "family":
-                a = np.ascontiguousarray(given[name], dtype=_DTYPES[ctype])
+                a = np.ascontiguousarray(next(families), dtype=_DTYPES[ctype])
                 if a.shape != (length,):
                     raise ValueError(f"family {name} has shape {a.shape}, expected ({length},)")
                 keep.append(a)

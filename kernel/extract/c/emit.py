@@ -41,8 +41,11 @@ from certiloop.models.lang.theorem import Theorem
 def extract_c(theorem: Theorem) -> dict[str, str]:
     """{file name: text} of the C kernel: `<name>.h` and `<name>.c`. Raises ExtractError,
     with a one-line reason naming the model, for a shape it cannot write in C."""
+    from certiloop.kernel.extract.names import c_unsafe, generate_renamed
+
     try:
-        return _extract_c(theorem)
+        files = generate_renamed(theorem, lambda name: c_unsafe(name, c_name(theorem.name)), _extract_c)
+        return _python_names_in_macros(theorem, files)
     except ModelError as exc:
         message = " ".join(str(exc).split())
         if not message.startswith(f"{theorem.name}:"):
@@ -171,6 +174,29 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
     return {f"{base}.h": header, f"{base}.c": source}
 
 
+def _python_names_in_macros(theorem: Theorem, files: dict[str, str]) -> dict[str, str]:
+    """The header's INPUTS / FAMILIES / OUTPUTS macros name the symbols as the Python kernel does
+    (its INPUTS), whatever C had to rename (a C parameter `u_c` is the model's `c`)."""
+    import re
+
+    from certiloop.kernel.extract.names import PREFIX, c_unsafe, python_unsafe, renaming
+
+    base = c_name(theorem.name)
+    back = {new: old for old, new in renaming(theorem, lambda n: c_unsafe(n, base)).items()}
+    if not back:
+        return files
+
+    def name(word: str) -> str:
+        old = back.get(word, word)
+        return PREFIX + old if python_unsafe(old) else old
+
+    def macro(m: re.Match) -> str:
+        return m.group(1) + " ".join(name(w) for w in m.group(2).split()) + '"'
+
+    pattern = re.compile(rf'^(#define {base.upper()}_(?:INPUTS|FAMILIES|OUTPUTS) ")([^"]*)"', re.M)
+    return {k: pattern.sub(macro, v) if k.endswith(".h") else v for k, v in files.items()}
+
+
 def _doc(outputs, families, sizes) -> str:
     outs = ", ".join(f"*out_{v}" for v, _ in outputs)
     text = (f"/* Writes {outs} -- the values the verified model computes for this state (where several "
@@ -194,6 +220,32 @@ def _doc(outputs, families, sizes) -> str:
             row = f"{row} {w}" if row else w
     rows.append(row)
     return "\n   ".join(rows) + " */"
+
+
+def compile_error(files: dict[str, str]) -> str | None:
+    """The first diagnostic of the C compiler on the generated files (with -Werror, under
+    -std=c99 and -std=c11), None where they compile or no compiler is on the PATH: the last
+    guard that extract never writes C that does not build."""
+    import subprocess
+    import tempfile
+    from pathlib import Path
+
+    from certiloop.kernel.extract.c.build import compiler
+
+    cc = compiler()
+    if cc is None:
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, text in files.items():
+            (Path(tmp) / name).write_text(text)
+        source = next(name for name in files if name.endswith(".c"))
+        for std in ("-std=c99", "-std=c11"):
+            flags = [f for f in CFLAGS if not f.startswith("-std=")] + [std, "-fsyntax-only"]
+            done = subprocess.run([cc, *flags, source], cwd=tmp, capture_output=True, text=True)
+            if done.returncode != 0 or done.stderr.strip():
+                lines = [line for line in done.stderr.splitlines() if "error" in line or "warning" in line]
+                return (lines or done.stderr.splitlines() or ["exit status " + str(done.returncode)])[0]
+    return None
 
 
 def c_flags() -> list[str]:

@@ -9,6 +9,8 @@ import operator
 
 import numpy as np
 
+from certiloop.kernel import decide as _decide
+
 MODEL = 'cfmpa.builtdr'
 MODEL_HASH = '0877a2f6fdff762c'  # the model's content hash when this code was extracted
 INPUTS = ['N', 'm', 'n']
@@ -26,6 +28,12 @@ def controller(N, m, n, overlap):
     algorithm writes all its cells. Arrays are numpy arrays indexed from 0; an index outside an
     array is the caller's error (IndexError).
     """
+    return _decide.run(_step, (np.nan, False), N, m, n, overlap)
+
+
+def _step(_R, N, m, n, overlap):
+    """One pass of the step over the number kit _R: the float filter (raises Undecided where
+    a decision is not certain) or exact rationals."""
     N = operator.index(N)
     m = operator.index(m)
     n = operator.index(n)
@@ -42,4 +50,5 @@ def controller(N, m, n, overlap):
                         P[k, i, j] = 0
                     else:  # no alternative is enabled: the model has no run
                         return np.nan, False
+    # a real output: the largest float <= its real value (none beyond the float range: no run)
     return P, True

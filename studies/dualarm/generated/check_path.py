@@ -9,6 +9,8 @@ import operator
 
 import numpy as np
 
+from certiloop.kernel import decide as _decide
+
 MODEL = 'cfmpa.check_path'
 MODEL_HASH = '144fe78e40dbca7d'  # the model's content hash when this code was extracted
 INPUTS = ['ln', 'si', 'sj', 'gi', 'gj', 'N', 'm', 'n']
@@ -22,6 +24,12 @@ def controller(ln, si, sj, gi, gj, N, m, n, Li, Lj, P):
 
     Int parameters must be integers.
     """
+    return _decide.run(_step, (np.nan, False), ln, si, sj, gi, gj, N, m, n, Li, Lj, P)
+
+
+def _step(_R, ln, si, sj, gi, gj, N, m, n, Li, Lj, P):
+    """One pass of the step over the number kit _R: the float filter (raises Undecided where
+    a decision is not certain) or exact rationals."""
     ln = operator.index(ln)
     si = operator.index(si)
     sj = operator.index(sj)
@@ -49,4 +57,5 @@ def controller(ln, si, sj, gi, gj, N, m, n, Li, Lj, P):
                 ok = 0
             else:  # no alternative is enabled: the model has no run
                 return np.nan, False
+    # a real output: the largest float <= its real value (none beyond the float range: no run)
     return int(ok), True

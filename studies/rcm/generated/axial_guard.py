@@ -7,6 +7,8 @@ the plant runs. Every line comes from the model's syntax tree; comments name its
 
 import numpy as np
 
+from certiloop.kernel import decide as _decide
+
 MODEL = 'rcm.axial_guard'
 MODEL_HASH = '5c28000957856f8e'  # the model's content hash when this code was extracted
 INPUTS = ['eps', 'wcmd', 'gap', 'm']
@@ -19,20 +21,28 @@ def controller(eps, wcmd, gap, m):
     test) admits the state, or the arithmetic overflowed; the other values are then NaN and the
     caller must fall back.
 
-    Real parameters are converted to numpy float64: a division by zero or an overflow gives
-    inf/NaN (reported as enabled = False), never an exception.
+    Every decision is the real model's on the float inputs (exact rationals): taken in floats
+    with a rigorous error bound, and with exact rationals where the bound cannot decide. A
+    non-finite input, a division by zero the model does not guard, or a real output beyond the
+    float range is no run (enabled = False), never an exception.
     """
-    eps = np.float64(eps)
-    wcmd = np.float64(wcmd)
-    gap = np.float64(gap)
-    m = np.float64(m)
+    return _decide.run(_step, (np.nan, False), eps, wcmd, gap, m)
+
+
+def _step(_R, eps, wcmd, gap, m):
+    """One pass of the step over the number kit _R: the float filter (raises Undecided where
+    a decision is not certain) or exact rationals."""
+    eps = _R.real(eps)
+    wcmd = _R.real(wcmd)
+    gap = _R.real(gap)
+    m = _R.real(m)
     with np.errstate(divide='ignore', invalid='ignore', over='ignore'):
         # choice: command keeps the margin | command would cross: limit it
         if ((eps * wcmd) <= (gap + (-m))):  # command keeps the margin
             pass
         elif ((eps * wcmd) > (gap + (-m))):  # command would cross: limit it
-            wcmd = ((gap + (-m)) / eps)
+            wcmd = _R.div((gap + (-m)), eps)
         else:  # no alternative is enabled: the model has no run
             return np.nan, False
-    # floating-point overflow is no run the proof covers
-    return float(wcmd), bool(np.isfinite(wcmd))
+    # a real output: the largest float <= its real value (none beyond the float range: no run)
+    return _R.out(wcmd), True

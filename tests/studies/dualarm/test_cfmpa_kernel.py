@@ -334,7 +334,7 @@ def test_a_changed_model_is_refused_at_run_time(monkeypatch):
     from certiloop.studies.dualarm.generated import check_path as cfmpa_check
     monkeypatch.setattr(cfmpa_check, "MODEL_HASH", "0000000000000000")
     monkeypatch.setattr(pins, "_checked", False)
-    with pytest.raises(RuntimeError, match="certiloop extract cfmpa.check_path"):
+    with pytest.raises(RuntimeError, match="older cfmpa.check_path.*certiloop.studies regenerate"):
         check_path(np.zeros((1, 2, 2), np.uint8), [(0, 0)], (0, 0), (0, 0))
 
 

@@ -62,7 +62,7 @@ def test_a_changed_model_is_refused(monkeypatch):
 
     monkeypatch.setattr(ctrl2, "MODEL_HASH", "0000000000000000")
     monkeypatch.setattr(fixture, "_checked", False)
-    with pytest.raises(RuntimeError, match="certiloop extract"):
+    with pytest.raises(RuntimeError, match="certiloop.studies regenerate"):
         VirtualFixture([], gain=1, buffer=1, period=1)
 
 
