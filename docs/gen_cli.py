@@ -38,13 +38,15 @@ def _detail(action: argparse.Action) -> str:
     if action.required and action.option_strings:
         extras.append("required")
     if not action.option_strings:
-        extras.append({"*": "zero or more", "+": "one or more", "?": "optional"}.get(action.nargs, "required"))
+        extras.append(
+            {"*": "zero or more", "+": "one or more", "?": "optional"}.get(action.nargs, "required")
+        )
     return text + (f" ({'; '.join(extras)})" if extras else "")
 
 
 def _usage(parser: argparse.ArgumentParser) -> str:
     text = parser.format_usage().strip()
-    return text[len("usage: "):] if text.startswith("usage: ") else text
+    return text[len("usage: ") :] if text.startswith("usage: ") else text
 
 
 def command_section(name: str, parser: argparse.ArgumentParser, summary: str) -> list[str]:
@@ -62,19 +64,39 @@ def command_section(name: str, parser: argparse.ArgumentParser, summary: str) ->
 def page() -> str:
     import os
 
+    saved = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "100"  # argparse wraps usage lines to the terminal: the same page everywhere
+    try:
+        return _page()
+    finally:
+        if saved is None:
+            del os.environ["COLUMNS"]
+        else:
+            os.environ["COLUMNS"] = saved
+
+
+def _page() -> str:
     from certiloop.cli.parser import build_parser
 
-    os.environ["COLUMNS"] = "100"  # argparse wraps usage lines to the terminal: the same page everywhere
     parser = build_parser()
     helps = _helps(parser)
-    out = ["# CLI reference", "",
-           "Generated from certiloop's argument parser when the docs are built: every command, "
-           "argument and flag, as `certiloop COMMAND --help` shows them. Exit codes, budgets and "
-           "report formats are in [Reports, exit codes and budgets](outputs.md).", "",
-           "```text", _usage(parser), "```", "",
-           "| flag | what it does |", "|---|---|",
-           "| `-h`, `--help` | show the help and exit |",
-           "| `--version` | print certiloop's version and exit |", ""]
+    out = [
+        "# CLI reference",
+        "",
+        "Generated from certiloop's argument parser when the docs are built: every command, "
+        "argument and flag, as `certiloop COMMAND --help` shows them. Exit codes, budgets and "
+        "report formats are in [Reports, exit codes and budgets](outputs.md).",
+        "",
+        "```text",
+        _usage(parser),
+        "```",
+        "",
+        "| flag | what it does |",
+        "|---|---|",
+        "| `-h`, `--help` | show the help and exit |",
+        "| `--version` | print certiloop's version and exit |",
+        "",
+    ]
     for name, sub in _subparsers(parser).items():
         out += command_section(name, sub, helps.get(name, ""))
     return "\n".join(out)

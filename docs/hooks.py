@@ -15,7 +15,6 @@ sys.path.insert(0, str(HERE))
 import gen_cli  # noqa: E402
 import gen_perf  # noqa: E402
 
-
 SOURCE_TREE = HERE.parent / ".cache" / "docs-src"  # mkdocs.yml: mkdocstrings' `paths`
 
 
@@ -39,7 +38,10 @@ def _changelog() -> str:
 
 
 def on_files(files, config):
-    for path, make in (("reference/cli.md", gen_cli.page), ("reference/performance.md", gen_perf.page),
-                       ("changelog.md", _changelog)):
+    for path, make in (
+        ("reference/cli.md", gen_cli.page),
+        ("reference/performance.md", gen_perf.page),
+        ("changelog.md", _changelog),
+    ):
         files.append(File.generated(config, path, content=make()))
     return files

@@ -57,7 +57,7 @@ def blocks(page: Path) -> list[Block]:
             markers[marker.group(1)] = marker.group(2)
         elif fence:
             end = next(j for j in range(i + 1, len(lines)) if lines[j].startswith("```"))
-            found.append(Block(page, i + 1, fence.group(1), "\n".join(lines[i + 1:end]) + "\n", markers))
+            found.append(Block(page, i + 1, fence.group(1), "\n".join(lines[i + 1 : end]) + "\n", markers))
             markers, i = {}, end
         elif lines[i].strip():
             markers = {}  # a marker belongs to the block right after it
@@ -66,8 +66,11 @@ def blocks(page: Path) -> list[Block]:
 
 
 def runnable(block: Block) -> bool:
-    return ("file" in block.markers or block.lang == "python"
-            or (block.lang == "console" and any(c[0] == "certiloop" for c in commands(block))))
+    return (
+        "file" in block.markers
+        or block.lang == "python"
+        or (block.lang == "console" and any(c[0] == "certiloop" for c in commands(block)))
+    )
 
 
 def commands(block: Block) -> list[list[str]]:
@@ -83,8 +86,9 @@ def test_every_page_is_found_and_the_markers_are_known():
                 assert block.markers["docs-test"].startswith("skip "), block.where
 
 
-@pytest.mark.parametrize("page", [p for p in PAGES if any(runnable(b) for b in blocks(p))],
-                         ids=lambda p: str(p.relative_to(ROOT)))
+@pytest.mark.parametrize(
+    "page", [p for p in PAGES if any(runnable(b) for b in blocks(p))], ids=lambda p: str(p.relative_to(ROOT))
+)
 def test_the_code_blocks_run(page, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -133,16 +137,24 @@ def run_console(block: Block, env: dict) -> None:
     for argv in commands(block):
         if argv[0] != "certiloop":
             continue
-        done = subprocess.run([sys.executable, "-m", "certiloop.cli", *argv[1:]], env=env,
-                              capture_output=True, text=True, timeout=600)
+        done = subprocess.run(
+            [sys.executable, "-m", "certiloop.cli", *argv[1:]],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=600,
+        )
         assert done.returncode == expected, (
             f"{block.where}: `{shlex.join(argv)}` exited {done.returncode}, the page says {expected}\n"
-            f"{done.stdout[-2000:]}\n{done.stderr[-2000:]}")
+            f"{done.stdout[-2000:]}\n{done.stderr[-2000:]}"
+        )
 
 
 def test_the_tutorial_model_is_what_certiloop_init_writes():
     """The tutorial walks through the files `certiloop init` writes: the same text."""
-    written = {b.markers["file"]: b.text for b in blocks(ROOT / "docs" / "tutorial.md") if "file" in b.markers}
+    written = {
+        b.markers["file"]: b.text for b in blocks(ROOT / "docs" / "tutorial.md") if "file" in b.markers
+    }
     templates = ROOT / "cli" / "templates"
     for name in ("drone_models.py", "test_drone.py"):
         assert written[name] == (templates / name).read_text(encoding="utf-8"), name
