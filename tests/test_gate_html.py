@@ -2,7 +2,9 @@
 library's HTML parser; its behaviour (no console error, a collapsed branch opens on click, the
 search box filters) in a real headless Chromium driven by Selenium."""
 
+import json
 import shutil
+from fractions import Fraction
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -122,12 +124,20 @@ def test_an_interrupted_gate_says_so():
     assert "interrupted: a partial report of the 1 of 3 models finished" in page
 
 
-def test_gate_writes_the_html_report(tmp_path, capsys):
-    target = tmp_path / "gate.html"
-    assert main(["gate", "sbs.ctrl1", "--no-cache", "--jobs", "1", "--falsify-examples", "20",
-                 "--html", str(target), "-q"]) == 0
-    page = target.read_text(encoding="utf-8")
-    assert "sbs.ctrl1" in page and parsed(page).external == []
+def test_gate_writes_the_html_report(tmp_path, capsys, monkeypatch):
+    """A real gate over `certiloop init`'s two drone models: the refuted one's run is plotted."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["init"]) == 0
+    assert main(["gate", "--no-cache", "--jobs", "1", "--falsify-examples", "50", "--html", "gate.html",
+                 "--json", "gate.json", "-q"]) == 0
+    page = (tmp_path / "gate.html").read_text(encoding="utf-8")
+    doc = parsed(page)
+    assert doc.external == [] and "drone.altitude_limiter" in page and "drone.no_reaction_time" in page
+    report = json.loads((tmp_path / "gate.json").read_text())
+    run = next(e["counterexample"] for e in report if e["counterexample"])
+    end = run["trace"][-1]["state"]
+    assert Fraction(end["h"]) > Fraction(end["H"])  # the run the page plots does pass the ceiling
+    assert doc.polylines  # ... and it is plotted
 
 
 def test_a_missing_html_folder_is_bad_input(tmp_path, capsys):
