@@ -172,3 +172,38 @@ def test_the_readme_is_short_and_has_no_history():
 def test_no_page_speaks_of_the_papers_by_number():
     for page in PAGES:
         assert not re.search(r"seed[ -]?00\d", page.read_text(encoding="utf-8"), re.I), page
+
+
+def generator(name: str):
+    sys.path.insert(0, str(ROOT / "docs"))
+    try:
+        return __import__(name)
+    finally:
+        sys.path.remove(str(ROOT / "docs"))
+
+
+def test_the_cli_reference_has_every_flag_of_every_command():
+    from certiloop.cli.parser import build_parser
+
+    page = generator("gen_cli").page()
+    parser = build_parser()
+    commands = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction").choices
+    assert {"init", "list", "prove", "falsify", "gate", "extract", "export", "campaign"} <= set(commands)
+    for name, sub in commands.items():
+        assert f"## certiloop {name}" in page, name
+        flags = set(re.findall(r"(?<![\w-])--?[a-zA-Z][\w-]*", sub.format_help())) - {"-h", "--help"}
+        missing = [f for f in flags if f"`{f}`" not in page]
+        assert not missing, (name, missing)
+
+
+def test_the_performance_page_has_each_records_rows_with_a_command():
+    import json
+
+    page = generator("gen_perf").page()
+    for name in ("prove.json", "falsify.json", "kernel_c.json", "monitors.json"):
+        record = json.loads((ROOT / "benchmarks" / "results" / name).read_text())
+        section = page.split(f"`benchmarks/results/{name}`", 1)[1].split("\n## ", 1)[0]
+        rows = [line for line in section.splitlines() if line.startswith("| ")]  # "|---" is not one
+        assert len(rows) - 1 == len(record["rows"]), name  # the header, then one line per measurement
+        assert all(re.search(r"\| `(python benchmarks/|certiloop )[^`]+` \|$", row) for row in rows[1:]), name
+    assert "old_" not in page and "new_" not in page  # no before/after history
