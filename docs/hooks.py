@@ -1,5 +1,6 @@
 """MkDocs hooks: the pages generated from the code and the records, so they cannot drift —
-the CLI reference (from the argument parser), the performance page (from
+the CLI reference (from the argument parser), the model library (from the library), the
+performance page (from
 benchmarks/results/*.json) and the changelog (CHANGELOG.md at the top of the repository)."""
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
 
 import gen_cli  # noqa: E402
+import gen_library  # noqa: E402
 import gen_perf  # noqa: E402
 
 SOURCE_TREE = HERE.parent / ".cache" / "docs-src"  # mkdocs.yml: mkdocstrings' `paths`
@@ -40,6 +42,7 @@ def _changelog() -> str:
 def on_files(files, config):
     for path, make in (
         ("reference/cli.md", gen_cli.page),
+        ("reference/library.md", gen_library.page),
         ("reference/performance.md", gen_perf.page),
         ("changelog.md", _changelog),
     ):

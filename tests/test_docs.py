@@ -207,3 +207,20 @@ def test_the_performance_page_has_each_records_rows_with_a_command():
         assert len(rows) - 1 == len(record["rows"]), name  # the header, then one line per measurement
         assert all(re.search(r"\| `(python benchmarks/|certiloop )[^`]+` \|$", row) for row in rows[1:]), name
     assert "old_" not in page and "new_" not in page  # no before/after history
+
+
+def test_each_case_study_has_a_page_named_by_its_paper():
+    from certiloop.models.library.registry import studies
+
+    for study in studies():
+        page = (ROOT / "docs" / "studies" / f"{study.name}.md").read_text(encoding="utf-8")
+        assert page.splitlines()[0] == f"# {study.title}", study.name
+        assert f"studies/{study.name}.md" in (ROOT / "mkdocs.yml").read_text(), study.name
+
+
+def test_the_library_page_lists_every_model_with_its_expectation():
+    from certiloop.models import library
+
+    page = generator("gen_library").page()
+    for name in library.names():
+        assert f"| `{name}` | {library.get(name).expected} |" in page, name

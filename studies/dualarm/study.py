@@ -6,7 +6,7 @@ HERE = "certiloop.studies.dualarm"
 
 STUDY = Study(
     name="dualarm",
-    title="A verified collision-free motion planner for two SCARA arms (HOL4)",
+    title="Formal Verification of a Collision-free Algorithm of Dual-arm Robot in HOL4",
     order=20,
     package=HERE,
     models={

@@ -6,7 +6,7 @@ HERE = "certiloop.studies.raven"
 
 STUDY = Study(
     name="raven",
-    title="Raven-II: a dynamic-model deviation monitor under fault injection, and certified FMT* planning",
+    title="Surgeon Training in Telerobotic Surgery via a Hardware-in-the-Loop Simulator",
     order=50,
     package=HERE,
     models={

@@ -6,7 +6,7 @@ HERE = "certiloop.studies.sbs"
 
 STUDY = Study(
     name="sbs",
-    title="Virtual fixtures for skull-base surgery (Kouskoulas et al., HSCC 2013)",
+    title="Certifying the Safe Design of a Virtual Fixture Control Algorithm for a Surgical Robot",
     order=10,
     package=HERE,
     models={
