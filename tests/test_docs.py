@@ -11,8 +11,9 @@ Per page, in a fresh temporary folder, the blocks run in the order they appear:
   excerpt (timings vary), so only the exit code is compared. Other `$` lines (pip, pytest) and
   ```sh blocks are installation steps, not run here.
 
-A block after `<!-- docs-test: skip REASON -->` is not run; use it only where running is
-impossible (a network service, an optional native dependency).
+A block after `<!-- docs-test: requires MODULE -->` runs only where MODULE imports (an optional
+extra, such as OMPL for planning); one after `<!-- docs-test: skip REASON -->` never runs — use
+it only where running is impossible (a network service).
 """
 
 from __future__ import annotations
@@ -83,7 +84,7 @@ def test_every_page_is_found_and_the_markers_are_known():
         for block in blocks(page):
             assert set(block.markers) <= {"file", "exit", "docs-test"}, block.where
             if "docs-test" in block.markers:
-                assert block.markers["docs-test"].startswith("skip "), block.where
+                assert block.markers["docs-test"].split(" ", 1)[0] in ("skip", "requires"), block.where
 
 
 @pytest.mark.parametrize(
@@ -97,7 +98,7 @@ def test_the_code_blocks_run(page, tmp_path, monkeypatch):
     env = {**os.environ, "COLUMNS": "100", "CERTILOOP_CACHE": str(tmp_path / ".cache")}
     try:
         for block in blocks(page):
-            if "docs-test" in block.markers or not runnable(block):
+            if not runnable(block) or not wanted(block):
                 continue
             if "file" in block.markers:
                 write(block, tmp_path)
@@ -109,6 +110,15 @@ def test_the_code_blocks_run(page, tmp_path, monkeypatch):
         for name in set(sys.modules) - before:
             if getattr(sys.modules[name], "__file__", "") and str(tmp_path) in sys.modules[name].__file__:
                 del sys.modules[name]
+
+
+def wanted(block: Block) -> bool:
+    how, _, what = block.markers.get("docs-test", "run").partition(" ")
+    if how == "requires":
+        import importlib.util
+
+        return importlib.util.find_spec(what) is not None
+    return how != "skip"
 
 
 def write(block: Block, folder: Path) -> None:
