@@ -1,4 +1,4 @@
-"""Seed 002's qualitative claims and builtDR / planner timing on the dual-arm scenes.
+"""The dual-arm paper's qualitative claims and builtDR / planner timing on the dual-arm scenes.
 
     python benchmarks/bench_cfmpa.py [--dt 0.2 0.1] [--queries 40] [--check] [--plot DIR]
 

@@ -1,4 +1,4 @@
-"""Table 2 of seed 003 beside ours: certified FMT* (OMPL) on raven.frs_box.
+"""Table 2 of the Raven-II paper beside ours: certified FMT* (OMPL) on raven.frs_box.
 
     python benchmarks/bench_fmt.py [--runs 20] [--samples 200,500,1000,2000] [--eta 0.1,0.5]
     python benchmarks/bench_fmt.py --fig7 [--runs 20]     # Fig 7: eta = (1, 0) vs (0, 1) at n = 500

@@ -1,4 +1,4 @@
-"""Seed-001 RCM admittance kernel: step latency, the paper's reproductions, and proof times.
+"""The RCM paper's admittance kernel: step latency, the paper's reproductions, and proof times.
 
     python benchmarks/bench_rcm.py [--steps 2000] [--no-prove] [--plot]
 

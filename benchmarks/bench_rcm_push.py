@@ -1,4 +1,4 @@
-"""Seed 001's 4 ms penetration, found by search (`certiloop falsify rcm.push_*`): for each
+"""The RCM paper's 4 ms penetration, found by search (`certiloop falsify rcm.push_*`): for each
 kernel scenario, the least peak push the search finds that enters the cloud (brute-force
 replay), or the closest clearance if none enters; the least steady axial push that enters;
 and the figure of the found push replayed with and without the proved guard.

@@ -1,4 +1,4 @@
-"""The spec's B4 mutants of the dual-arm database (seed 002), for bench_cfmpa.py --soundness.
+"""The spec's B4 mutants of the dual-arm database (the dual-arm paper), for bench_cfmpa.py --soundness.
 
 Each mutant is the kernel's builtDR with one piece swapped for a flawed reading the paper's
 text allows or the library refutes (`cfmpa.*`):

@@ -1,4 +1,4 @@
-"""The spec's B5 for seed 002 (`bench_cfmpa.py --ompl`): what a general sampling planner does
+"""The spec's B5 for the dual-arm paper (`bench_cfmpa.py --ompl`): what a general sampling planner does
 with the dual-arm problem, beside the paper's space-time planner.
 
 OMPL plans both arms together in the combined 4-D joint space (principal θ1, θ2, subordinate

@@ -1,4 +1,4 @@
-"""Occupancy layers of seed 002's state database, original vs modified swept region, like the
+"""Occupancy layers of the dual-arm paper's state database, original vs modified swept region, like the
 paper's Figs. 3-4 (matplotlib; `python benchmarks/bench_cfmpa.py --plot DIR` or run this file).
 
     python benchmarks/plot_cfmpa.py [--dt 0.1] [--scene R1] [-o DIR]

@@ -1,5 +1,5 @@
 """Every public DSL construct and every Theorem argument is documented: a docstring, and a
-row in the README's DSL reference."""
+row in the DSL reference page (docs/reference/dsl.md)."""
 
 import dataclasses
 import inspect
@@ -9,8 +9,8 @@ from pathlib import Path
 import certiloop.models as dsl
 from certiloop.models import Theorem
 
-README = (Path(__file__).resolve().parent.parent / "README.md").read_text()
-REFERENCE = README.split("## DSL reference", 1)[1].split("\n## ", 1)[0]
+PAGE = (Path(__file__).resolve().parent.parent / "docs" / "reference" / "dsl.md").read_text()
+REFERENCE = PAGE.split("\n## ", 1)[0]  # the tables before the rendered docstrings
 PUBLIC = {name: getattr(dsl, name) for name in dsl.__all__ if name != "lang"}
 
 
@@ -25,7 +25,7 @@ def test_every_construct_has_its_own_docstring():
     assert missing == []
 
 
-def test_every_theorem_argument_is_in_its_docstring_and_the_readme():
+def test_every_theorem_argument_is_in_its_docstring_and_the_reference():
     fields = [f.name for f in dataclasses.fields(Theorem)]
     assert fields[:4] == ["name", "assumptions", "program", "guarantee"]
     for name in fields:
@@ -33,6 +33,6 @@ def test_every_theorem_argument_is_in_its_docstring_and_the_readme():
         assert f"| `{name}` |" in REFERENCE, name
 
 
-def test_every_public_name_is_in_the_readme_reference():
+def test_every_public_name_is_in_the_reference_page():
     missing = [name for name in PUBLIC if f"`{name}`" not in REFERENCE]
     assert missing == []

@@ -25,6 +25,9 @@ def add_parser(sub) -> None:
                       help="write JUnit XML to F (a test case per model and obligation)")
     gate.add_argument("--markdown", metavar="F",
                       help="append a Markdown summary to F (e.g. $GITHUB_STEP_SUMMARY)")
+    gate.add_argument("--html", metavar="F",
+                      help="write a self-contained HTML report to F (obligation trees, counterexample "
+                      "plots, a search box; no network needed to open it)")
     options.budget_flags(gate)
     options.cross_check_flag(gate)
     gate.add_argument("--jobs", metavar="N", type=int, default=None,
@@ -45,7 +48,8 @@ def run(args: argparse.Namespace) -> int:
     if args.falsify_examples < 1:
         raise BadInput(f"--falsify-examples must be at least 1, got {args.falsify_examples}")
     options.check_outputs(("--json", args.json, "file"), ("--junit", args.junit, "file"),
-                   ("--markdown", args.markdown, "file"), ("--cache", args.cache, "folder"))
+                           ("--markdown", args.markdown, "file"), ("--html", args.html, "file"),
+                           ("--cache", args.cache, "folder"))
     from certiloop.api.gate_run import GateOptions, run_gate
     from certiloop.api.loading import load_all, project_models
     from certiloop.cli import ui
@@ -85,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def gate_reports(args: argparse.Namespace, entries: list, selected: int) -> None:
-    """--json, --junit and --markdown; after Ctrl-C, for the models finished, marked partial."""
+    """--json, --junit, --markdown and --html; after Ctrl-C, for the models finished, marked partial."""
+    from certiloop.cli.gate_html import html_report
     from certiloop.cli.gate_report import junit, markdown
 
     partial = len(entries) < selected
@@ -97,4 +102,6 @@ def gate_reports(args: argparse.Namespace, entries: list, selected: int) -> None
     if args.markdown:
         with open(args.markdown, "a") as fh:  # CI summary files are appended to
             fh.write(markdown(entries, selected))
+    if args.html:
+        Path(args.html).write_text(html_report(entries, selected), encoding="utf-8")
 

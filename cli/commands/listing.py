@@ -11,7 +11,8 @@ from certiloop.cli.errors import EXIT_OK
 
 def add_parser(sub) -> None:
     listing = sub.add_parser("list", help="models in the library and their expected verdicts",
-                             description="List the library's models with their expected verdicts.")
+                             description="List models with their expected verdicts: the MODELs named, else "
+                             "[tool.certiloop] models in ./pyproject.toml, else the whole library.")
     listing.add_argument("models", nargs="*", metavar="MODEL",
                          help="list only these (a family, path/to/file.py:theorem, FILE.kyx[:\"Entry\"])")
     listing.add_argument("--json", action="store_true",
@@ -25,11 +26,11 @@ def run(args: argparse.Namespace) -> int:
 def list_models(as_json: bool = False, models: list[str] | None = None) -> int:
     from rich.markup import escape
 
-    from certiloop.api.loading import Unsupported, load_all
+    from certiloop.api.loading import Unsupported, load_all, project_models
     from certiloop.cli import ui
-    from certiloop.models import library
 
-    found = load_all(models, keep_unsupported=True) if models else [library.get(n) for n in library.names()]
+    # the same default as `certiloop gate`: the project's models, else the library
+    found = load_all(models or project_models(), keep_unsupported=True)
     # an archive entry certiloop cannot read is listed, its reason where the description goes
     rows = [(t.name, "not supported", t.reason) if isinstance(t, Unsupported) else
             (t.name, t.expected, t.description) for t in found]

@@ -1,4 +1,4 @@
-"""Two planar SCARA arms (seed 002): link polygons, swept-region enclosures, builtDR.
+"""Two planar SCARA arms (the dual-arm paper): link polygons, swept-region enclosures, builtDR.
 
 numpy only. Each arm is two rectangular links; the swept region of a link while its joints
 move through a box of joint angles is enclosed by the convex hull of finitely many points:

@@ -1,4 +1,4 @@
-"""The subordinate's planner over the state database (seed 002, searchoptpath), numpy only.
+"""The subordinate's planner over the state database (the dual-arm paper, searchoptpath), numpy only.
 
 A path L_0 .. L_{len-1} of grid cells is a plan when (repaired Definition 4, `cfmpa.check_path`)
 it starts at the start cell and ends at the goal cell, every element k is a cell free in layer

@@ -1,4 +1,4 @@
-"""The Raven-II arm of seed 003: kinematics (eqs 3-4) and joint PD/PID dynamics (numpy only).
+"""The Raven-II paper's arm: kinematics (eqs 3-4) and joint PD/PID dynamics (numpy only).
 
 Kinematics: the modified (Craig) DH table of the public Raven II control software
 (CSLDepend/raven2_sim, `include/raven/r2_kinematics.h` and `src/raven/r2_kinematics.cpp`;

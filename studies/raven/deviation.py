@@ -1,4 +1,4 @@
-"""Deviation monitor of seed 003 (eqs 3-6): model vs robot, haptic cue, stop (numpy only).
+"""Deviation monitor of the Raven-II paper (eqs 3-6): model vs robot, haptic cue, stop (numpy only).
 
 The paper runs a dynamical model of the arm beside the robot; both get the same command.
 With p from forward kinematics (eq 4) and v from the tip Jacobian (eq 3) of each:

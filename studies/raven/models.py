@@ -1,4 +1,4 @@
-"""Raven-II deviation monitor (seed 003, Li, Alemzadeh et al., J. Healthcare Eng. 2017).
+"""Raven-II deviation monitor (the Raven-II paper, Li, Alemzadeh et al., J. Healthcare Eng. 2017).
 
 The paper runs a dynamical model of the robot beside the real arm; both get the same
 command, and the deviation e = p_robot - p_model (eq 4's forward kinematics of both) raises

@@ -1,4 +1,4 @@
-"""Barrier forces of the seed-001 controller from an N-point cloud, through a KD-tree.
+"""Barrier forces of the RCM paper's controller from an N-point cloud, through a KD-tree.
 
 A cloud point p_i is a forbidden ball of radius d_c (8); within d_0 of that ball it pushes with
 f_i = k_v ((d_0 + d_c) - rho) (x - p_i)/rho (11)-(14), the negative gradient of V_i (9)-(10).

@@ -1,4 +1,4 @@
-"""The seed-001 target dynamics (22)-(23) for the 7-DOF LWR4+, integrated at 250 Hz.
+"""The RCM paper's target dynamics (22)-(23) for the 7-DOF LWR4+, integrated at 250 Hz.
 
 q'' = -S [h; u] + Z^T Z J_t^T (F_th + F_r), with S = [A^dagger  Z^T] (21),
 h = A' q' + 2 alpha x_c' + beta^2 x_c and u = D_f x_f' + d(Z^daggerT)/dt q' (23); so the

@@ -1,4 +1,4 @@
-"""The seed-001 RCM admittance controller's kernel (KUKA LWR4+, 250 Hz): one import path.
+"""The RCM paper's admittance controller kernel (KUKA LWR4+, 250 Hz): one import path.
 
 * `studies/rcm/arm.py` (numpy only): LWR4+ kinematics and Jacobian, the RCM error and constraint
   Jacobian, the weighted null-space projector, the paper's axial Euler step, and the proved

@@ -1,4 +1,4 @@
-"""The human-force search of `certiloop falsify rcm.push_*`: seed 001's 7-DOF controller at its
+"""The human-force search of `certiloop falsify rcm.push_*`: the RCM paper's 7-DOF controller at its
 4 ms period (`kernel.rcm.demo_controller`), driven by a surgeon's hand that hypothesis moves.
 
 A *profile* is the wrench at the flange over time: a few segments, each a constant force held

@@ -1,4 +1,4 @@
-"""`certiloop falsify rcm.push_*`: the human-force search on seed 001's controller
+"""`certiloop falsify rcm.push_*`: the human-force search on the RCM paper's controller
 (`studies/rcm/push.py`), its report, JSON and figure."""
 
 from __future__ import annotations

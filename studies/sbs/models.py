@@ -1,4 +1,4 @@
-"""Skull-base-surgery virtual fixtures (seed 000, Kouskoulas et al., HSCC'13).
+"""Skull-base-surgery virtual fixtures (the virtual-fixture paper, Kouskoulas et al., HSCC'13).
 
 Symbols follow the seed: p = tool tip, f = surgeon force, fxp/fyp = force derivatives
 (the inputs), G = admittance gain, D = slow-zone thickness. In Table 1 the boundary is the

@@ -29,7 +29,7 @@ REFUSED = {
     "rcm.passivity_step_midpoint": "repeats any number of times",  # one plant period, no decision
     "rcm.cloud_cover": "computes nothing",  # draws a voxel point: an arithmetic fact, no step
     "raven.jump_detected": "2 plant ODEs",  # a fault (jump) between two flows
-    # seed 002 lemmas whose program only draws witnesses (no result) or repeats a motion step
+    # the dual-arm paper lemmas whose program only draws witnesses (no result) or repeats a motion step
     "cfmpa.hull_in_halfplane": "repeats any number of times",  # hull points drawn in a loop
     "cfmpa.sat_separates": "repeats any number of times",
     "cfmpa.property3": "computes nothing",
@@ -250,7 +250,7 @@ def test_raven_deviation_stop_3d():
     assert outcomes == {"stop", "follow", "no run"}
 
 
-# ------------------------------------------------------------------ cfmpa (seed 002)
+# ------------------------------------------------------------------ cfmpa (the dual-arm paper)
 
 
 @pytest.mark.parametrize("name, inputs, outputs", [

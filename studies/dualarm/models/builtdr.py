@@ -1,4 +1,4 @@
-"""Dual-arm SCARA collision-free motion planner (seed 002): builtDR as a Hoare triple.
+"""Dual-arm SCARA collision-free motion planner (the dual-arm paper): builtDR as a Hoare triple.
 
 Theorem 1 of the seed:
     {T} BuiltDR {∀ i j k. k < N ∧ i < m ∧ j < n ⇒ P[k][i][j] = (SLarm_k ∩ SRarm_{k,i,j} = Φ → 0 | 1)}
@@ -59,7 +59,7 @@ def _builtdr(row_bound, name: str, expected: str, description: str, extra: int =
 
 
 def builtdr() -> Theorem:
-    """Algorithm 1's builtDR fills P[k][i][j] for every cell (Theorem 1 of seed 002)."""
+    """Algorithm 1's builtDR fills P[k][i][j] for every cell (Theorem 1 of the dual-arm paper)."""
     return _builtdr(m, "cfmpa.builtdr", "proved", "builtDR records the collision predicate in every "
                     "cell (Hoare triple, quantified invariants)")
 

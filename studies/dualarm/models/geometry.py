@@ -1,4 +1,4 @@
-"""Dual-arm SCARA planner (seed 002), the convex-polygon domain of §III.A.
+"""Dual-arm SCARA planner (the dual-arm paper), the convex-polygon domain of §III.A.
 
 The paper's collision test rests on Definitions 1-3 (segment, is_convex, convex hull) and
 Lemmas 1-2 (the hull is monotone and contains the union of hulls). certiloop states them as

@@ -1,4 +1,4 @@
-"""Dual-arm SCARA planner (seed 002): executing a plan, and the semantic inconsistency of §III.C.
+"""Dual-arm SCARA planner (the dual-arm paper): executing a plan, and the semantic inconsistency of §III.C.
 
 The database's layer k was built from the principal's swept region over the joint box around
 its planned pose θL(k) at time kΔt: the original box [θ - ωΔt, θ + ωΔt] per joint (step 3 of

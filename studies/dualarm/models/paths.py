@@ -1,4 +1,4 @@
-"""Dual-arm SCARA planner (seed 002): paths through the state database, Definitions 4-5,
+"""Dual-arm SCARA planner (the dual-arm paper): paths through the state database, Definitions 4-5,
 Theorems 2 and 4, Properties 2-7.
 
 A path is a list of cells L_0 .. L_{len-1} (the Int arrays Li, Lj); element k is where the

@@ -1,4 +1,4 @@
-"""Fault-injection campaigns over a batched closed loop (seed 003, skeleton).
+"""Fault-injection campaigns over a batched closed loop (the Raven-II paper, skeleton).
 
 One campaign steps R runs at once, 1 kHz, for a fixed number of ticks:
 

@@ -1,4 +1,4 @@
-"""Certified FMT* planning for the Raven-II arm (seed 003, §2.3): OMPL's FMT* plans in the
+"""Certified FMT* planning for the Raven-II arm (the Raven-II paper, §2.3): OMPL's FMT* plans in the
 arm's joint space, and every returned path carries a certificate of rigorous interval bounds
 that `certiloop check-path` re-checks independently.
 

@@ -1,6 +1,6 @@
-"""Passive RCM admittance control with forbidden regions (seed 001, LWR4+, 250 Hz).
+"""Passive RCM admittance control with forbidden regions (the RCM paper, LWR4+, 250 Hz).
 
-The seed's Theorem 1 claims, for the target dynamics (22)-(23): (1) constraint and free
+The paper's Theorem 1 claims, for the target dynamics (22)-(23): (1) constraint and free
 motion are decoupled, (2) the RCM error x_c converges exponentially, (3) passivity, (4) the
 tip never enters the forbidden region O_c. The models below check the algebra behind (1)
 and (2) exactly, prove (4) in continuous time under its premises, and show that the

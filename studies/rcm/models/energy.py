@@ -1,4 +1,4 @@
-"""Seed 001, the energy side of Theorem 1: passivity (28)-(33), the whole-tool capsule (34)-(37),
+"""The RCM paper, the energy side of Theorem 1: passivity (28)-(33), the whole-tool capsule (34)-(37),
 and the premises the paper's theorem leaves unstated, each shown necessary by a refuted variant.
 
 Symbols: w = x_f' (the free-motion velocity of (27), four coordinates: the tool axis and three

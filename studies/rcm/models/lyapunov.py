@@ -1,4 +1,4 @@
-"""Seed 001: a numeric Lyapunov certificate for the paper's discretised RCM constraint dynamics.
+"""The RCM paper: a numeric Lyapunov certificate for the paper's discretised RCM constraint dynamics.
 
 (25) with alpha = beta = 25, integrated by explicit Euler at h = 4 ms, is the linear map
 z+ = A z on z = (x_c, x_c'), A = [[1, h], [-h a^2, 1 - 2 a h]]. The matrix P below was proposed

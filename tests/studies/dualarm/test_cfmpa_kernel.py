@@ -1,4 +1,4 @@
-"""The dual-arm kernel (seed 002): enclosures and builtDR against shapely, the planner against
+"""The dual-arm kernel (the dual-arm paper): enclosures and builtDR against shapely, the planner against
 brute force, the checker against the path definition.
 
 shapely is an independent oracle (test extra only): it never runs in the kernel.

@@ -1,4 +1,4 @@
-"""The dual-arm planner against an LP oracle (seed 002, spec §3.3): the (J1, J2)-optimal plan is
+"""The dual-arm planner against an LP oracle (the dual-arm paper, spec §3.3): the (J1, J2)-optimal plan is
 a shortest path in the time-expanded graph of (element, last move, cell), so its cost W·J1 + J2
 is the optimum of a min-cost-flow LP with one unit from the start to the goal. The network
 matrix is totally unimodular, so that optimum is integral and equals the best path's cost.

@@ -1,4 +1,4 @@
-"""The cfmpa.* theorems (seed 002): verdicts, and what each counterexample shows, re-read here
+"""The cfmpa.* theorems (the dual-arm paper): verdicts, and what each counterexample shows, re-read here
 in plain Python on the exact values of the refutation (independently of the engine)."""
 
 from fractions import Fraction

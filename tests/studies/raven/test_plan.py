@@ -1,4 +1,4 @@
-"""Certified FMT* planning (seed 003, issue 17): kinematics, interval enclosures, the
+"""Certified FMT* planning (the Raven-II paper): kinematics, interval enclosures, the
 independent certificate check, `certiloop plan` / `check-path`, and tracking.
 
 Independent witnesses: the closed-form kinematics is checked against the 4x4 DH product of

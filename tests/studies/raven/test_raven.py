@@ -1,4 +1,4 @@
-"""The raven.* theorems (seed 003): verdicts, counterexamples re-checked here, mutations."""
+"""The raven.* theorems (the Raven-II paper): verdicts, counterexamples re-checked here, mutations."""
 
 from fractions import Fraction
 

@@ -1,4 +1,4 @@
-"""The Raven-II runtime kernels (seed 003): deviation monitor (eqs 3-6) and the arm."""
+"""The Raven-II runtime kernels (the Raven-II paper): deviation monitor (eqs 3-6) and the arm."""
 
 import math
 import os

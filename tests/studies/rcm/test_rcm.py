@@ -1,4 +1,4 @@
-"""Seed 001 (RCM admittance): every rcm.* model meets its verdict; refuted runs violate their
+"""The RCM paper (RCM admittance): every rcm.* model meets its verdict; refuted runs violate their
 guarantee when re-checked here; the proved guard does not survive a smaller margin."""
 
 import re

@@ -1,4 +1,4 @@
-"""The seed-001 7-DOF controller (studies/rcm/dynamics.py, rcm_cloud.py, rcm_demo.py), each claim
+"""The RCM paper's 7-DOF controller (studies/rcm/dynamics.py, rcm_cloud.py, rcm_demo.py), each claim
 checked against something the kernel does not compute itself: a separately coded DH product,
 rcm.rcm_error / rcm.barrier_force_axial, brute-force distances, the closed-form solution of (25)."""
 

@@ -1,4 +1,4 @@
-"""The seed-001 kernel (certiloop.studies.rcm.kernel): kinematics, null space, the paper's 4 ms
+"""The RCM paper's kernel (certiloop.studies.rcm.kernel): kinematics, null space, the paper's 4 ms
 crossing with the exact barrier, and the proved guard against its model."""
 
 import ast

@@ -1,4 +1,4 @@
-"""The human-force search on seed 001's controller (studies/rcm/push.py): the paper's 4 ms
+"""The human-force search on the RCM paper's controller (studies/rcm/push.py): the paper's 4 ms
 explicit Euler lets a push into the cloud, the proved guard does not, under the same search.
 Small clouds and horizons keep these quick; `certiloop falsify rcm.push_euler` runs the full one."""
 

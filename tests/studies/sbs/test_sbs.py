@@ -1,4 +1,4 @@
-"""The surgical virtual-fixture family (seed 000): every claim of the paper, checked."""
+"""The surgical virtual-fixture family (the virtual-fixture paper): every claim of the paper, checked."""
 
 from dataclasses import replace
 from fractions import Fraction

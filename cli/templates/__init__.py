@@ -1,0 +1,1 @@
+"""The files `certiloop init` writes into a new project (read with importlib.resources)."""
