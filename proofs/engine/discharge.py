@@ -5,10 +5,11 @@ from __future__ import annotations
 import time
 from fractions import Fraction
 
-from certiloop.models.lang.terms import And, Node
+from certiloop.models.lang.terms import And, Implies, Node
 from certiloop.proofs.arith.projection import abbreviation_instances
 from certiloop.proofs.core import boxes
 from certiloop.proofs.core.cases import case_formulas
+from certiloop.proofs.core.shaping import shaped_parts
 from certiloop.proofs.core.simplify import simplify
 from certiloop.proofs.core.solver import SolverAnswer, check_valid
 from certiloop.proofs.core.vcgen import Obligation
@@ -55,6 +56,9 @@ def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: b
         split = _by_cases(ob, share, start)
         if split is not None:
             return split
+        shaped = _shaped(ob, share, start)
+        if shaped is not None:
+            return shaped
     res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
     res.kind, res.backend = ob.kind, answer.backend
     if res.verdict == "proved":
@@ -98,3 +102,45 @@ def _by_cases(ob: Obligation, budget: Budget, start: float) -> ObligationResult 
                            backend=f"z3 ({len(cases)} cases)", kind=ob.kind)
     res.proved_formula = And(*cases)
     return res
+
+
+# The parts of a shaped obligation (proofs/core/shaping.py): first each with this share of the
+# budget, then those not proved with the whole budget and the proved parts as lemmas.
+FIRST_PASS_SHARE = 4
+MAX_PARTS = 8
+
+
+def _shaped(ob: Obligation, budget: Budget, start: float) -> ObligationResult | None:
+    """The obligation with its denominators cleared, its stale facts dropped and its goal
+    split into parts (shaping.py), each part proved; None unless every part is proved.
+
+    A part may assume the parts proved before it (each is a consequence of the hypotheses):
+    the adaptive cruise control's distance `xf < xl` at the flow's end follows from the
+    stopping-distance part, which z3 proves alone, far sooner than from the hypotheses."""
+    parts = shaped_parts(ob.formula)
+    if parts is None or len(parts) > MAX_PARTS:
+        return None
+    proved: dict[int, Node] = {}
+    for k, part in enumerate(parts):
+        if _check(part, budget.share(FIRST_PASS_SHARE)).status == "unsat":
+            proved[k] = part
+    for k, part in enumerate(parts):
+        if k in proved:
+            continue
+        lemmas = [_goal(proved[j]) for j in sorted(proved)]
+        with_lemmas = Implies(And(_hypotheses(part), *lemmas), _goal(part))
+        if _check(with_lemmas, budget).status != "unsat":
+            return None
+        proved[k] = with_lemmas
+    res = ObligationResult(ob.id, ob.path, "proved", time.perf_counter() - start,
+                           backend=f"z3 (shaped, {len(parts)} parts)", kind=ob.kind)
+    res.proved_formula = And(*(proved[k] for k in sorted(proved)))
+    return res
+
+
+def _hypotheses(part: Node) -> Node:
+    return part.args[0] if part.op == "implies" else And()
+
+
+def _goal(part: Node) -> Node:
+    return part.args[1] if part.op == "implies" else part
