@@ -123,15 +123,10 @@ class _Signs:
 
 def _sign_from(e: sympy.Expr, op: str, d: sympy.Expr) -> int:
     """What the fact `e op 0` says about d's sign when e = c*d + k (c, k rational, c != 0)."""
-    c = sympy.cancel(e / d) if d != 0 else None
-    if c is not None and c.is_Rational and c != 0:
-        k = sympy.Integer(0)
-    else:
-        diff = sympy.expand(e - d)
-        if diff.is_Rational:  # e = d + k
-            c, k = sympy.Integer(1), diff
-        else:
-            return 0
+    k, rest = e.as_coeff_Add()  # e = k + rest, k the constant term
+    c = sympy.cancel(rest / d)
+    if not (c.is_Rational and c != 0):
+        return 0
     # e op 0  ⟺  c*d + k op 0  ⟺  d op' -k/c
     bound = Fraction(int(sympy.Rational(-k / c).p), int(sympy.Rational(-k / c).q))
     op = op if c > 0 else _FLIP[op]
