@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from fractions import Fraction
 
 from certiloop.models.lang.terms import And, Implies, Node
@@ -105,8 +106,10 @@ def _by_cases(ob: Obligation, budget: Budget, start: float) -> ObligationResult 
 
 
 # The parts of a shaped obligation (proofs/core/shaping.py): first each with this share of the
-# budget, then those not proved with the whole budget and the proved parts as lemmas.
-FIRST_PASS_SHARE = 4
+# budget, then those not proved with the whole budget; all of them together at most SHAPED_CAP
+# budgets (a hopeless obligation with many parts must not cost many budgets).
+FIRST_PASS_SHARE = 2
+SHAPED_CAP = 2
 MAX_PARTS = 8
 
 
@@ -114,24 +117,30 @@ def _shaped(ob: Obligation, budget: Budget, start: float) -> ObligationResult | 
     """The obligation with its denominators cleared, its stale facts dropped and its goal
     split into parts (shaping.py), each part proved; None unless every part is proved.
 
-    A part may assume the parts proved before it (each is a consequence of the hypotheses):
-    the adaptive cruise control's distance `xf < xl` at the flow's end follows from the
-    stopping-distance part, which z3 proves alone, far sooner than from the hypotheses."""
+    A part may assume the parts proved before it (each is a consequence of the hypotheses),
+    and the largest parts go first: the adaptive cruise control's distance `xf < xl` at the
+    flow's end follows from its stopping-distance part, which z3 proves alone, far sooner than
+    from the hypotheses (1.4 million units against more than 4 million)."""
     parts = shaped_parts(ob.formula)
     if parts is None or len(parts) > MAX_PARTS:
         return None
+    order = sorted(range(len(parts)), key=lambda k: -len(str(parts[k])))  # stable: ties as written
     proved: dict[int, Node] = {}
-    for k, part in enumerate(parts):
-        if _check(part, budget.share(FIRST_PASS_SHARE)).status == "unsat":
-            proved[k] = part
-    for k, part in enumerate(parts):
-        if k in proved:
-            continue
-        lemmas = [_goal(proved[j]) for j in sorted(proved)]
-        with_lemmas = Implies(And(_hypotheses(part), *lemmas), _goal(part))
-        if _check(with_lemmas, budget).status != "unsat":
-            return None
-        proved[k] = with_lemmas
+    left = budget.rlimit * SHAPED_CAP
+    for share in (budget.share(FIRST_PASS_SHARE), budget):
+        for k in order:
+            if k in proved:
+                continue
+            if left <= 0:
+                return None
+            lemmas = [_goal(proved[j]) for j in sorted(proved)]
+            with_lemmas = Implies(And(_hypotheses(parts[k]), *lemmas), _goal(parts[k]))
+            answer = _check(with_lemmas, replace(share, rlimit=min(share.rlimit, left)))
+            left -= max(answer.spent, 0)
+            if answer.status == "unsat":
+                proved[k] = with_lemmas
+    if len(proved) < len(parts):
+        return None
     res = ObligationResult(ob.id, ob.path, "proved", time.perf_counter() - start,
                            backend=f"z3 (shaped, {len(parts)} parts)", kind=ob.kind)
     res.proved_formula = And(*(proved[k] for k in sorted(proved)))
