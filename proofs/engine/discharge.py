@@ -21,19 +21,22 @@ from certiloop.proofs.engine.polysize import nonlinear_size
 
 
 def discharge_one(ob: Obligation, budget: Budget | None = None, quick: bool = False,
-                  keep_model: bool = False) -> ObligationResult:
+                  keep_model: bool = False, shaping: bool = True) -> ObligationResult:
     """Prove one obligation: first its weakenings (instantiated, lowered, abstracted; a
     generalisation is only trusted for `proved`), then as stated, which alone can give a
     counterexample. Every form gets the same deterministic budget; once the abstracted form
     has a counterexample the obligation is probably false, and the raw forms get a share.
     quick: the report beside a refutation, where the verdict is already decided by the run.
-    keep_model keeps the raw solver model, which may hold live z3 handles."""
-    res = _discharge(ob, budget, quick, keep_model)
+    keep_model keeps the raw solver model, which may hold live z3 handles.
+    shaping: an obligation left unknown is tried shaped (_shaped); off for the trials of an
+    ODE planner, which are many, each with a small budget, and only choose a chain."""
+    res = _discharge(ob, budget, quick, keep_model, shaping)
     res.rule = ob.rule
     return res
 
 
-def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: bool) -> ObligationResult:
+def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: bool,
+               shaping: bool) -> ObligationResult:
     budget = budget or Budget()
     start = time.perf_counter()
     projected_cex = False
@@ -57,7 +60,7 @@ def _discharge(ob: Obligation, budget: Budget | None, quick: bool, keep_model: b
         split = _by_cases(ob, share, start)
         if split is not None:
             return split
-        shaped = _shaped(ob, share, start)
+        shaped = _shaped(ob, share, start) if shaping else None
         if shaped is not None:
             return shaped
     res = judge(ob.id, ob.path, ob.formula, answer, time.perf_counter() - start)
