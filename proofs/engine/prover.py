@@ -318,7 +318,7 @@ class Prover:
         hence second). All are sound; the search only chooses which to report."""
         planning = self.budget.share(PLAN_SHARE)
         for certify in (False, True):
-            plan = plan_odes(theorem, lambda ob: discharge_one(ob, planning), certify)
+            plan = plan_odes(theorem, lambda ob: discharge_one(ob, planning, shaping=False), certify)
             if not plan:
                 continue
             planned = self._screened(generate(theorem, plan), None)
@@ -327,7 +327,7 @@ class Prover:
             if all(r.verdict == "proved" for r in results):
                 return results
         for option in ghost_options(theorem):  # eigen.py: the same claim, with a ghost's hints
-            plan = plan_odes(option, lambda ob: discharge_one(ob, planning))
+            plan = plan_odes(option, lambda ob: discharge_one(ob, planning, shaping=False))
             planned = self._screened(generate(option, plan), None)
             if sum(r.verdict != "proved" for r in planned) < sum(r.verdict != "proved" for r in results):
                 results = planned
