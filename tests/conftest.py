@@ -11,6 +11,7 @@ that keep the quick run under 10 minutes. `dev` is random with default sizes.
 
 import os
 import sys
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -34,9 +35,18 @@ def pytest_configure(config):
                             "`python -m pytest -q -m slow`, which CI runs after the quick run")
 
 
+# the slowest tests of a timed run (tests/tiers.py chooses them): marked `slow` at collection
+SLOW_TESTS = set((Path(__file__).parent / "slow_tests.txt").read_text().split())
+
+
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
     """Tests marked `deep` run only in the deep profile or when asked for with -m deep; tests
-    marked `slow` only in the deep profile or with -m slow (CI runs both sets)."""
+    marked `slow` (in the code, or listed in slow_tests.txt) only in the deep profile or with
+    -m slow (CI runs both sets)."""
+    for item in items:
+        if item.nodeid in SLOW_TESTS:
+            item.add_marker(pytest.mark.slow)
     asked = config.getoption("-m") or ""
     for marker, command in (("deep", "HYPOTHESIS_PROFILE=deep python -m pytest -q"),
                             ("slow", "python -m pytest -q -m slow")):
