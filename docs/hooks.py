@@ -18,6 +18,7 @@ import gen_library  # noqa: E402
 import gen_perf  # noqa: E402
 
 SOURCE_TREE = HERE.parent / ".cache" / "docs-src"  # mkdocs.yml: mkdocstrings' `paths`
+DOCUMENTED = ("models", "api")  # the packages whose docstrings the reference renders
 
 
 def _source_tree() -> Path:
@@ -26,9 +27,10 @@ def _source_tree() -> Path:
     package = SOURCE_TREE / "certiloop"
     package.mkdir(parents=True, exist_ok=True)
     (package / "__init__.py").write_text("")
-    link = package / "models"
-    if not link.is_symlink():
-        link.symlink_to(HERE.parent / "models", target_is_directory=True)
+    for name in DOCUMENTED:
+        link = package / name
+        if not link.is_symlink():
+            link.symlink_to(HERE.parent / name, target_is_directory=True)
     return SOURCE_TREE
 
 
