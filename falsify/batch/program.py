@@ -41,7 +41,7 @@ from certiloop.falsify.batch.state import Bind, State
 from certiloop.falsify.choosers import REAL_RANGE
 from certiloop.falsify.evaluate import Table
 from certiloop.falsify.flows import conserved_apart
-from certiloop.falsify.interpreter import HORIZON, LOOP_BOUND, OPEN_LOOP_ITERATIONS, _outer_loop, index_sorts
+from certiloop.falsify.interpreter import HORIZON, LOOP_BOUND, OPEN_LOOP_ITERATIONS, index_sorts, outer_loop
 from certiloop.falsify.vectorise import (
     Leaf,
     Unsupported,
@@ -290,7 +290,7 @@ class BatchProgram(OpenValues):
             raise Unsupported(f"more than one index sort ({', '.join(self.sorts)})")
         self.families = _families(self.symbols)
         self.vc = VCompiler()
-        self.top = _outer_loop(theorem.program)
+        self.top = outer_loop(theorem.program)
         self.given = list(free_vars(theorem.assumptions))
         self.assumptions = self.vc(theorem.assumptions)
         self.guarantee = self.vc(theorem.guarantee)

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import re
 
-from certiloop.kernel.extract.errors import ExtractError, _refuse
+from certiloop.kernel.extract.errors import ExtractError, refuse
 from certiloop.kernel.extract.template import MAX_POWER
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node
 
@@ -58,7 +58,7 @@ def c_const(n: Node, real: bool) -> str:
         return f"{int(v)}LL" if abs(int(v)) > 2**31 - 1 else str(int(v))
     text = repr(float(v)) if v.denominator != 1 else f"{int(v)}.0"
     if text in ("inf", "-inf", "nan"):
-        raise _refuse(n, "a constant outside the double range")
+        raise refuse(n, "a constant outside the double range")
     return text
 
 
@@ -78,7 +78,7 @@ def c_op(n: Node, a: list[str]) -> str:
         if k == 1:
             return a[0]
         if not (isinstance(k, int) and 2 <= k <= MAX_POWER):
-            raise _refuse(n, f"only natural powers up to {MAX_POWER} are written in C")
+            raise refuse(n, f"only natural powers up to {MAX_POWER} are written in C")
         return "(" + " * ".join([a[0]] * k) + ")"
     if op == "cmp":
         return f"({a[0]} {n.payload} {a[1]})"
@@ -92,7 +92,7 @@ def c_op(n: Node, a: list[str]) -> str:
         return f"((!{a[0]}) || {a[1]})"
     if op == "iff":
         return f"((!{a[0]}) == (!{a[1]}))"
-    raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
+    raise refuse(n, "not an arithmetic term or a quantifier-free formula")
 
 
 _ASSIGNMENT = re.compile(r"^\s*(?:double |int |long long |unsigned char |cl_real )?(\w+) = [^;]*;"
