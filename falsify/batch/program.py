@@ -132,7 +132,6 @@ class _Flow:
         self.rhs_nodes = [f for _, f in ode.eqs]
         self.rhs = [vc(f) for f in self.rhs_nodes]
         self.domain = ode.domain
-        self.domain_truth = vc(ode.domain)
         # along the flow (flows.py), `a != b` as "a - b keeps its starting sign" (along.py)
         signed, pairs = signed_domain(conserved_apart(ode)[0])
         self.domain_margin = vc.margin(signed)

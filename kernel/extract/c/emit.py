@@ -248,5 +248,3 @@ def compile_error(files: dict[str, str]) -> str | None:
     return None
 
 
-def c_flags() -> list[str]:
-    return list(CFLAGS)
