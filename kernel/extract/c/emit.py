@@ -246,5 +246,3 @@ def compile_error(files: dict[str, str]) -> str | None:
                 lines = [line for line in done.stderr.splitlines() if "error" in line or "warning" in line]
                 return (lines or done.stderr.splitlines() or ["exit status " + str(done.returncode)])[0]
     return None
-
-
