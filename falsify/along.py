@@ -54,9 +54,9 @@ def sign_kept_parts(domain: Node) -> list[Node]:
 
 def keeps_sign(difference: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
     """d(x(s)) != 0 for all s in [0, τ], exactly where d is polynomial in s."""
-    from certiloop.proofs.core.odes import _keeps_sign
+    from certiloop.proofs.core.odes import keeps_sign_along
 
-    return _keeps_sign(difference, solution, tau, s)
+    return keeps_sign_along(difference, solution, tau, s)
 
 
 def signs(pairs: list[tuple[str, Callable[[Any], Any]]], start: Any) -> dict[str, Any]:

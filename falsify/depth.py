@@ -13,15 +13,15 @@ FLOAT_ONLY = "floating point only"  # how a check starts that nothing exact or v
 UNCONFIRMED = "unconfirmed candidate"  # the verdict of a run only floating point shows violating
 
 
-def _depth(run: Run) -> tuple[float, float]:
+def depth(run: Run) -> tuple[float, float]:
     """The smallest guarantee margin at the end of the run, and the float tolerance."""
     last = run.checkpoints[-1]
     worst = min(last.margins.values(), default=0.0)
     return worst, FLOAT_TOLERANCE * max([1.0] + [abs(v) for v in _numbers(last.state)])
 
 
-def _deep(run: Run) -> bool:
-    worst, tolerance = _depth(run)
+def is_deep(run: Run) -> bool:
+    worst, tolerance = depth(run)
     return worst < -tolerance
 
 
@@ -36,7 +36,7 @@ def _numbers(state: dict[str, Any]):
 def float_only(run: Run, why: str = "") -> str:
     """The float check, for a run no exact or validated replay confirmed, named as such and
     with why the enclosures failed (or "" if rounding could explain the violation)."""
-    worst, tolerance = _depth(run)
+    worst, tolerance = depth(run)
     if worst < -tolerance:
         return (f"{FLOAT_ONLY}: violated by {-worst:.3g}, beyond the tolerance {tolerance:.1g} "
                 f"(not validated{': ' + why if why else ''})")

@@ -135,7 +135,7 @@ class Compiler:
                 only = idx[0]
 
                 def cell(s):
-                    key = (_index(only(s)),)
+                    key = (index(only(s)),)
                     value = s[name].read(key)
                     if value is None:
                         raise NeedValue((name, key), sort)
@@ -143,7 +143,7 @@ class Compiler:
                 return cell
 
             def cells(s):
-                key = tuple(_index(i(s)) for i in idx)
+                key = tuple(index(i(s)) for i in idx)
                 value = s[name].read(key)
                 if value is None:
                     raise NeedValue((name, key), sort)
@@ -239,7 +239,7 @@ def _pool(v: Node, body: Node, compiler: Compiler) -> Callable[[dict], Any]:
     """The values a bound variable ranges over: an index sort's universe, or the integers
     its guard bounds (∀i. 0 <= i ∧ i < N -> ...)."""
     if v.sort == INT:
-        lo, hi = _int_bounds(v.payload, body, compiler)
+        lo, hi = int_bounds(v.payload, body, compiler)
         if lo is None or hi is None:
             raise ModelError(f"cannot execute a quantifier over `{v.payload}`: its guard does not bound it")
         return lambda s: range(math.ceil(lo(s)), math.floor(hi(s)) + 1)
@@ -251,7 +251,7 @@ def _pool(v: Node, body: Node, compiler: Compiler) -> Callable[[dict], Any]:
     return lambda s: universe(s, sort)
 
 
-def _int_bounds(name: str, body: Node, compiler: Compiler):
+def int_bounds(name: str, body: Node, compiler: Compiler):
     """Closures for the least and greatest value the guard of `body` allows `name`."""
     guard = body.args[0] if body.op in ("implies", "and") else body
     los, his = [], []
@@ -306,7 +306,7 @@ def _near(equal: bool, a: Fn, b: Fn) -> Fn:
     return near
 
 
-def _index(x: Any) -> Any:
+def index(x: Any) -> Any:
     """Array indices are ints (index elements, integer counters); 2.0 reads cell 2."""
     if type(x) is int:
         return x

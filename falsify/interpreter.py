@@ -143,7 +143,7 @@ class Interpreter:
         model = _model(theorem, exact)
         self.c = model.compiler
         self.exact = exact
-        self.top = _outer_loop(theorem.program)
+        self.top = outer_loop(theorem.program)
         self.guarantee = self.c(theorem.guarantee)
         self.parts = model.parts
         self.index_sorts = model.index_sorts
@@ -537,7 +537,7 @@ def _conjuncts(f: Node) -> list[Node]:
     return [f]
 
 
-def _outer_loop(p: Program) -> Loop | None:
+def outer_loop(p: Program) -> Loop | None:
     if isinstance(p, Loop):
         return p
     if isinstance(p, Seq) and isinstance(p.parts[-1], Loop):
@@ -587,10 +587,10 @@ def _bound_sorts(f: Node, visit) -> None:
 
 
 def cell_of(target: Node, s: dict[str, Any], interp: Interpreter) -> tuple[str, tuple]:
-    from certiloop.falsify.evaluate import _index
+    from certiloop.falsify.evaluate import index
 
     root, idx = target.args[0], target.args[1:]
-    return root.payload, tuple(_index(interp._value(interp.c(i), s)) for i in idx)
+    return root.payload, tuple(index(interp._value(interp.c(i), s)) for i in idx)
 
 
 def store(s: dict[str, Any], target: Node, value: Any, interp: Interpreter) -> None:

@@ -197,9 +197,9 @@ class TraceChooser(Chooser):
         self.at = 0
 
     def outer_steps(self, theorem: Theorem) -> int:
-        from certiloop.falsify.interpreter import _outer_loop
+        from certiloop.falsify.interpreter import outer_loop
 
-        top = _outer_loop(theorem.program)
+        top = outer_loop(theorem.program)
         return self.iterations.get(top.label, 0) if top is not None else 0
 
     def _next(self, kind: str):

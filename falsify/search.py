@@ -40,9 +40,9 @@ from certiloop.falsify.depth import (  # noqa: F401
     FLOAT_ONLY,
     FLOAT_TOLERANCE,
     UNCONFIRMED,
-    _deep,
-    _depth,
+    depth,
     float_only,
+    is_deep,
 )
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import Inexact
@@ -212,7 +212,7 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
             target(max(-1e6, min(1e6, -worst)), label="smallest guarantee margin")
         if run.violated is None:
             return
-        worst, tolerance = _depth(run)
+        worst, tolerance = depth(run)
         if confirmed and worst < -tolerance:
             # shrinking a confirmed run: a violation far beyond rounding needs no replay on
             # each step; the shrunk run is replayed once at the end (else the first one stands)
@@ -335,7 +335,7 @@ def _shrink_budget(steps: int):
 def _literals(theorem: Theorem) -> set:
     """Every numeric literal of the theorem, and its negation: the pool hypothesis draws
     constants from while it searches this theorem (`pinned_constants`)."""
-    from certiloop.models.lang.theorem import _visit
+    from certiloop.models.lang.theorem import visit
 
     found: set = set()
 
@@ -343,7 +343,7 @@ def _literals(theorem: Theorem) -> set:
         if n.op == "const" and n.sort.is_numeric:
             found.update((n.payload, -n.payload))
 
-    _visit(theorem, on_node)
+    visit(theorem, on_node)
     return found
 
 
@@ -364,7 +364,8 @@ def confirm(theorem: Theorem, script, run: Run, opts: Options, enclose: bool = T
     except Inexact:  # a flow without a closed form: follow it by validated enclosures
         from certiloop.falsify.validated import confirm_enclosed
 
-        validated, why = (confirm_enclosed(theorem, script, opts.max_steps, opts.families, retreat=_deep(run))
+        validated, why = (confirm_enclosed(theorem, script, opts.max_steps, opts.families,
+                                           retreat=is_deep(run))
                           if enclose else ("", "enclosures not tried"))
         if validated:
             return validated

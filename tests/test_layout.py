@@ -143,3 +143,15 @@ def test_each_study_is_registered_and_has_a_readme():
     assert registered == folders
     for name in folders:
         assert (ROOT / "studies" / name / "README.md").exists(), name
+
+
+def test_no_module_imports_another_modules_private_names():
+    """A name another module needs is part of its module's interface: public, no underscore."""
+    found = []
+    for name, path in _modules().items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("certiloop") \
+                    and node.module != name:
+                found += [(name, node.module, a.name) for a in node.names
+                          if a.name.startswith("_") and not a.name.startswith("__")]
+    assert found == []

@@ -39,9 +39,9 @@ from typing import Any
 import numpy as np
 
 from certiloop.falsify.choosers import RandomChooser, Recording
-from certiloop.falsify.evaluate import Compiler, Table, _index, _int_bounds
+from certiloop.falsify.evaluate import Compiler, Table, index, int_bounds
 from certiloop.falsify.initial import initial_state
-from certiloop.falsify.interpreter import LOOP_BOUND, Interpreter, _outer_loop, index_sorts
+from certiloop.falsify.interpreter import LOOP_BOUND, Interpreter, index_sorts, outer_loop
 from certiloop.falsify.state import Rejected
 from certiloop.falsify.vectorise import Unsupported
 from certiloop.models.lang.programs import (
@@ -124,7 +124,7 @@ class IntBatchProgram:
             else:
                 raise Unsupported(f"`{name}` is not an integer scalar or an array of integers or Booleans "
                                   "over integers")
-        if _outer_loop(theorem.program) is not None:
+        if outer_loop(theorem.program) is not None:
             raise Unsupported("an outer control loop (the integer batch runs straight-line triples)")
         self._uni: dict[int, bool] = {}
         self.given = set(free_vars(theorem.assumptions))
@@ -280,7 +280,7 @@ class IntBatchProgram:
                 raise Unsupported(f"the guard of `{f}` reads more than integers")
             pools = []
             for v in f.payload:
-                lo, hi = _int_bounds(v.payload, body, self.c)
+                lo, hi = int_bounds(v.payload, body, self.c)
                 if lo is None or hi is None:
                     raise Unsupported(f"the guard of `{f}` does not bound `{v.payload}`")
                 pools.append((lo, hi))
@@ -341,7 +341,7 @@ class IntBatchProgram:
     # ------------------------------------------------------------------ cells
     def _key(self, n: Node, bind: dict[str, Any]) -> Cell:
         env = {**self.env, **bind} if bind else self.env
-        return n.args[0].payload, tuple(_index(self.c(i)(env)) for i in n.args[1:])
+        return n.args[0].payload, tuple(index(self.c(i)(env)) for i in n.args[1:])
 
     def _cell(self, key: Cell) -> list[np.ndarray]:
         got = self.cells.get(key)

@@ -24,7 +24,7 @@ import numpy as np
 
 from certiloop.falsify.batch.program import compiled
 from certiloop.falsify.choosers import Diverged, Scripted
-from certiloop.falsify.depth import FLOAT_ONLY, _deep, float_only
+from certiloop.falsify.depth import FLOAT_ONLY, float_only, is_deep
 from certiloop.falsify.evaluate import Blocked, Compiler, NeedValue, Table
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
@@ -128,7 +128,7 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
     except Inexact:  # a flow without a closed form: follow it by validated enclosures
         from certiloop.falsify.validated import confirm_enclosed
 
-        deep = run is not None and run.violated is not None and _deep(run)
+        deep = run is not None and run.violated is not None and is_deep(run)
         validated, why = confirm_enclosed(theorem, script, max_steps, families, start, retreat=deep)
         if validated and run is not None and run.violated is not None:
             return run, validated
@@ -136,7 +136,7 @@ def confirm_candidate(theorem: Theorem, initial: dict[str, float], script, max_s
         return None, ""  # domain's edge), or the start misses the assumptions: not a run
     except ArithmeticError as exc:
         why = f"the exact replay failed: {type(exc).__name__}"
-    if run is not None and run.violated is not None and _deep(run):
+    if run is not None and run.violated is not None and is_deep(run):
         return run, float_only(run, why)
     return None, ""
 

@@ -41,7 +41,7 @@ from certiloop.falsify.batch.state import Bind, State
 from certiloop.falsify.choosers import REAL_RANGE
 from certiloop.falsify.evaluate import Table
 from certiloop.falsify.flows import conserved_apart
-from certiloop.falsify.interpreter import HORIZON, LOOP_BOUND, OPEN_LOOP_ITERATIONS, _outer_loop, index_sorts
+from certiloop.falsify.interpreter import HORIZON, LOOP_BOUND, OPEN_LOOP_ITERATIONS, index_sorts, outer_loop
 from certiloop.falsify.vectorise import (
     Leaf,
     Unsupported,
@@ -132,7 +132,6 @@ class _Flow:
         self.rhs_nodes = [f for _, f in ode.eqs]
         self.rhs = [vc(f) for f in self.rhs_nodes]
         self.domain = ode.domain
-        self.domain_truth = vc(ode.domain)
         # along the flow (flows.py), `a != b` as "a - b keeps its starting sign" (along.py)
         signed, pairs = signed_domain(conserved_apart(ode)[0])
         self.domain_margin = vc.margin(signed)
@@ -290,7 +289,7 @@ class BatchProgram(OpenValues):
             raise Unsupported(f"more than one index sort ({', '.join(self.sorts)})")
         self.families = _families(self.symbols)
         self.vc = VCompiler()
-        self.top = _outer_loop(theorem.program)
+        self.top = outer_loop(theorem.program)
         self.given = list(free_vars(theorem.assumptions))
         self.assumptions = self.vc(theorem.assumptions)
         self.guarantee = self.vc(theorem.guarantee)

@@ -1,7 +1,7 @@
-"""Reading the model: which part of the program is the control step. `_split` finds the
+"""Reading the model: which part of the program is the control step. `split` finds the
 control loop's plant (one ODE, a choice of ODE modes, or none for an algorithm) and the
 statements before or after it, with what the plant, the invariant and the guarantee read;
-`_outputs` picks the values the step must return; `controller` gives the step as a program.
+`step_outputs` picks the values the step must return; `controller` gives the step as a program.
 Also the syntax queries both code emitters share: conjuncts, reads, `for`-loop shapes, family
 index sorts, and the choice of plant modes rewritten as a choice of rate assignments."""
 
@@ -9,35 +9,35 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
+from certiloop.kernel.extract.errors import ExtractError, brief, refuse
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
 
 
-def _conjuncts(f: Node) -> list[Node]:
+def conjuncts(f: Node) -> list[Node]:
     if f.op == "and":
-        return [a for x in f.args for a in _conjuncts(x)]
+        return [a for x in f.args for a in conjuncts(x)]
     return [f]
 
 
-def _mentions(atom: Node, name: str) -> bool:
+def mentions(atom: Node, name: str) -> bool:
     if atom.op == "var":
         return atom.payload == name
     if atom.op == "select":
-        return atom.args[0].payload == name or any(_mentions(a, name) for a in atom.args[1:])
-    return any(_mentions(a, name) for a in atom.args)
+        return atom.args[0].payload == name or any(mentions(a, name) for a in atom.args[1:])
+    return any(mentions(a, name) for a in atom.args)
 
 
-def _is_index_sort(sort) -> bool:
+def is_index_sort(sort) -> bool:
     return not sort.is_numeric and sort != BOOL and not sort.is_array
 
 
-def _parts(p: Program) -> list[Program]:
+def seq_parts(p: Program) -> list[Program]:
     return list(p.parts) if isinstance(p, Seq) else [p]
 
 
-def _for_range_at(parts: list[Program], k: int) -> tuple[str, Node, Node, list[Program]] | None:
+def for_range_at(parts: list[Program], k: int) -> tuple[str, Node, Node, list[Program]] | None:
     """`i := lo; {?i < hi; body; i := i + 1}*; ?i >= hi` at parts[k]: (i, lo, hi, body)."""
     if k + 2 >= len(parts):
         return None
@@ -59,7 +59,7 @@ def _for_range_at(parts: list[Program], k: int) -> tuple[str, Node, Node, list[P
     return var.payload, init.value, hi, list(steps[1:-1])
 
 
-def _reads(p: Program, skip: set[int] = frozenset()) -> set[str]:
+def reads_of(p: Program, skip: set[int] = frozenset()) -> set[str]:
     """Names a program reads at run time (values, tests, cell indices, ODEs)."""
     if id(p) in skip:
         return set()
@@ -78,19 +78,19 @@ def _reads(p: Program, skip: set[int] = frozenset()) -> set[str]:
         out |= set(free_vars(p.domain))
     elif isinstance(p, (Seq, Choice)):
         for q in p.parts if isinstance(p, Seq) else p.alternatives:
-            out |= _reads(q, skip)
+            out |= reads_of(q, skip)
     elif isinstance(p, Loop):
-        out |= _reads(p.body, skip)
+        out |= reads_of(p.body, skip)
     return out
 
 
-def _mode_choice(plant: Choice, symbols: dict[str, Node]) -> tuple[Choice, list[str]]:
+def mode_choice(plant: Choice, symbols: dict[str, Node]) -> tuple[Choice, list[str]]:
     """The choice of plant modes as a choice of rate assignments: each mode's domain is its
     test, its right-hand sides the rates `x_dot` (of the variables the modes set differently)."""
-    odes = [_parts(alt)[-1] for alt in plant.alternatives]
+    odes = [seq_parts(alt)[-1] for alt in plant.alternatives]
     names = [tuple(v.payload for v in ode.variables) for ode in odes]
     if len(set(map(frozenset, names))) != 1:
-        raise _refuse(plant, "its modes evolve different variables")
+        raise refuse(plant, "its modes evolve different variables")
     rhs = [{v.payload: f for v, f in ode.eqs} for ode in odes]
     varying = [v for v in names[0] if len({r[v].key for r in rhs}) > 1] or list(names[0])
     rates = {v: f"{v}_dot" for v in varying}
@@ -99,13 +99,13 @@ def _mode_choice(plant: Choice, symbols: dict[str, Node]) -> tuple[Choice, list[
             raise ExtractError(f"the rate name `{r}` is a symbol of the model; cannot extract")
     alts = []
     for alt, ode, r in zip(plant.alternatives, odes, rhs):
-        pre = _parts(alt)[:-1]
+        pre = seq_parts(alt)[:-1]
         alts.append(Seq((*pre, Test(ode.domain), *(Assign(Var(rates[v], REAL), r[v]) for v in varying))))
     return Choice(tuple(alts), plant.labels), list(rates.values())
 
 
 @dataclass
-class _Step:
+class Step:
     parts: list[Program]  # the step's statements
     where: str  # "before" | "after" | "modes" (the plant) | "algorithm" (no plant)
     plant: Program | None  # the ODE, the choice of modes, or None
@@ -126,44 +126,44 @@ def _is_modes(p: Program) -> bool:
     if not isinstance(p, Choice):
         return False
     for alt in p.alternatives:
-        parts = _parts(alt)
+        parts = seq_parts(alt)
         if not isinstance(parts[-1], ODE) or any(_has_ode(q) for q in parts[:-1]):
             return False
     return True
 
 
-def _split(theorem: Theorem) -> _Step:
+def split(theorem: Theorem) -> Step:
     p = theorem.program
     guarantee = set(free_vars(theorem.guarantee))
     if not _has_ode(p):
         if isinstance(p, Loop):
-            raise _refuse(p, "a loop with no plant and no exit test repeats any number of times: there is "
+            raise refuse(p, "a loop with no plant and no exit test repeats any number of times: there is "
                           "no control step or algorithm result to extract")
-        return _Step(_parts(p), "algorithm", None, guarantee, set())
+        return Step(seq_parts(p), "algorithm", None, guarantee, set())
     if not isinstance(p, Loop):
-        raise ExtractError(f"cannot extract `{_brief(p)}`: the program has a plant ODE but is not a control "
+        raise ExtractError(f"cannot extract `{brief(p)}`: the program has a plant ODE but is not a control "
                            "loop `{step; plant}*`")
-    body = _parts(p.body)
+    body = seq_parts(p.body)
     plants = [k for k, q in enumerate(body) if isinstance(q, ODE) or _is_modes(q)]
     if len(plants) != 1:
         nested = next((q for q in body if _has_ode(q) and not (isinstance(q, ODE) or _is_modes(q))), None)
         if nested is not None:
-            raise _refuse(nested, "the plant ODE is nested in this statement; only `{step; plant}*`, "
+            raise refuse(nested, "the plant ODE is nested in this statement; only `{step; plant}*`, "
                           "`{plant; step}*` and a choice of ODE modes are extracted")
-        raise ExtractError(f"cannot extract `{_brief(p)}`: the control loop has {len(plants)} plant ODEs; "
+        raise ExtractError(f"cannot extract `{brief(p)}`: the control loop has {len(plants)} plant ODEs; "
                            "expected one")
     k = plants[0]
     before, after, plant = list(body[:k]), list(body[k + 1:]), body[k]
     if any(_has_ode(q) for q in before + after):
         second = next(q for q in before + after if _has_ode(q))
-        raise _refuse(second, "a second plant ODE in the control loop")
+        raise refuse(second, "a second plant ODE in the control loop")
     if isinstance(plant, ODE):
         # the plant's initialisation (clock resets t := 0) right before the ODE belongs to it
         flows = {v.payload for v in plant.variables}
         while before and isinstance(before[-1], Assign) and before[-1].target.op == "var" \
                 and before[-1].target.payload in flows:
             before.pop()
-    plant_reads = _reads(plant)
+    plant_reads = reads_of(plant)
     if isinstance(plant, ODE):
         plant_reads |= {v.payload for v in plant.variables}
     reads = plant_reads | guarantee
@@ -171,18 +171,18 @@ def _split(theorem: Theorem) -> _Step:
         reads |= set(free_vars(p.invariant))
     if _is_modes(plant):
         if after:
-            raise _refuse(after[0], "statements after a choice of plant modes")
-        return _Step(before, "modes", plant, reads, plant_reads)
+            raise refuse(after[0], "statements after a choice of plant modes")
+        return Step(before, "modes", plant, reads, plant_reads)
     if before and after:
-        raise _refuse(after[0], "discrete statements both before and after the plant ODE: which state the "
+        raise refuse(after[0], "discrete statements both before and after the plant ODE: which state the "
                       "step reads is ambiguous")
     if not before and not after:
-        raise ExtractError(f"cannot extract `{_brief(p)}`: the control loop has no discrete step, only the "
+        raise ExtractError(f"cannot extract `{brief(p)}`: the control loop has no discrete step, only the "
                            "plant")
-    return _Step(before or after, "before" if before else "after", plant, reads, plant_reads)
+    return Step(before or after, "before" if before else "after", plant, reads, plant_reads)
 
 
-def _outputs(theorem: Theorem, step: _Step, assigned: list[str], inputs: list[str],
+def step_outputs(theorem: Theorem, step: Step, assigned: list[str], inputs: list[str],
              tested: set[str]) -> list[str]:
     """What the step computes that the plant reads, then what only the invariant or the
     guarantee read; failing that, the commands it admits (inputs the plant reads and a
@@ -199,19 +199,19 @@ def _outputs(theorem: Theorem, step: _Step, assigned: list[str], inputs: list[st
     return outputs
 
 
-def _sort_of(theorem: Theorem, name: str, default):
+def sort_of(theorem: Theorem, name: str, default):
     symbols = {**free_vars(theorem.assumptions), **theorem.program.symbols(), **free_vars(theorem.guarantee)}
     return symbols[name].sort if name in symbols else default
 
 
-def _uses_families(parts: list[Program]) -> bool:
+def uses_families(parts: list[Program]) -> bool:
     if any(isinstance(q, Loop) and q.each is not None for q in parts):
         return True
     symbols = Seq(tuple(parts)).symbols() if parts else {}
-    return any(s.sort.is_array and any(_is_index_sort(d) for d in s.sort.domain) for s in symbols.values())
+    return any(s.sort.is_array and any(is_index_sort(d) for d in s.sort.domain) for s in symbols.values())
 
 
-def _families_only_tested(parts: list[Program]) -> bool:
+def families_only_tested(parts: list[Program]) -> bool:
     """No foreach and no family written: the families are only read, under `∀j` in tests
     (raven.deviation_stop_3d); the scalar code evaluates those over numpy arrays."""
     from certiloop.models.lang.programs import written
@@ -219,7 +219,7 @@ def _families_only_tested(parts: list[Program]) -> bool:
     if any(isinstance(q, Loop) and q.each is not None for q in parts):
         return False
     step = Seq(tuple(parts))
-    return not any(s.sort.is_array and any(_is_index_sort(d) for d in s.sort.domain)
+    return not any(s.sort.is_array and any(is_index_sort(d) for d in s.sort.domain)
                    for s in written(step).values())
 
 
@@ -230,7 +230,7 @@ def controller(theorem: Theorem, inputs: bool = True) -> Program:
     scalar inputs (`fxp := *`) if inputs is False."""
     from certiloop.models.lang.programs import seq
 
-    step = _split(theorem)
+    step = split(theorem)
     body = list(step.parts) + ([step.plant] if step.where == "modes" else [])
     if not inputs:
         body = [q for q in body if not (isinstance(q, Havoc) and q.target.op == "var"

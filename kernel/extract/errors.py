@@ -1,6 +1,6 @@
 """The extractor's one error and how it words a refusal. ExtractError (a ModelError)
-carries a one-line reason; `_refuse` names the statement it cannot extract and why, shortened
-by `_brief` to one line. Every other module of the extractor raises through these."""
+carries a one-line reason; `refuse` names the statement it cannot extract and why, shortened
+by `brief` to one line. Every other module of the extractor raises through these."""
 
 from __future__ import annotations
 
@@ -11,11 +11,11 @@ class ExtractError(ModelError):
     """The model's controller is not of a shape the extractor supports."""
 
 
-def _brief(x: object, width: int = 90) -> str:
+def brief(x: object, width: int = 90) -> str:
     """A statement or formula on one line, shortened."""
     text = " ".join(str(x).split())
     return text if len(text) <= width else text[: width - 3] + "..."
 
 
-def _refuse(what: object, why: str) -> ExtractError:
-    return ExtractError(f"cannot extract `{_brief(what)}`: {why}")
+def refuse(what: object, why: str) -> ExtractError:
+    return ExtractError(f"cannot extract `{brief(what)}`: {why}")

@@ -4,10 +4,10 @@ word any refusal as one line that starts with the model's name."""
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.analysis import _families_only_tested, _split, _uses_families
+from certiloop.kernel.extract.analysis import families_only_tested, split, uses_families
 from certiloop.kernel.extract.errors import ExtractError
-from certiloop.kernel.extract.scalar import _python
-from certiloop.kernel.extract.vectorised import _vectorised
+from certiloop.kernel.extract.scalar import python
+from certiloop.kernel.extract.vectorised import vectorised_source
 from certiloop.models.lang.terms import ModelError
 from certiloop.models.lang.theorem import Theorem
 
@@ -28,13 +28,13 @@ def extract(theorem: Theorem) -> str:
 
 def _extract(theorem: Theorem) -> str:
     try:
-        step = _split(theorem)
-        if _uses_families(step.parts) and not _families_only_tested(step.parts):
+        step = split(theorem)
+        if uses_families(step.parts) and not families_only_tested(step.parts):
             if step.where in ("modes", "algorithm"):
                 raise ExtractError("a family of boundaries in a switched plant or an algorithm is not "
                                    "vectorised")
-            return _vectorised(theorem, step)
-        return _python(theorem, step)
+            return vectorised_source(theorem, step)
+        return python(theorem, step)
     except ModelError as exc:
         message = " ".join(str(exc).split())
         if not message.startswith(f"{theorem.name}:"):

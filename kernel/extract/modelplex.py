@@ -54,21 +54,27 @@ they cannot be generated for is refused with a one-line MonitorError naming why.
 from __future__ import annotations
 
 from certiloop.kernel.extract.analysis import (
-    _families_only_tested,
-    _mode_choice,
-    _outputs,
-    _parts,
-    _reads,
-    _split,
-    _Step,
-    _uses_families,
+    Step,
+    families_only_tested,
+    mode_choice,
+    reads_of,
+    seq_parts,
+    split,
+    step_outputs,
+    uses_families,
 )
-from certiloop.kernel.extract.errors import ExtractError, _brief
+from certiloop.kernel.extract.errors import ExtractError, brief
 from certiloop.kernel.extract.generate import extract
 from certiloop.kernel.extract.modelplex_family import family_controller_monitor
-from certiloop.kernel.extract.monitor_terms import MonitorError, _conv, _fresh, _symbols, _term
-from certiloop.kernel.extract.scalar import KIT, STEP, _Python
-from certiloop.kernel.extract.shapes import _latches
+from certiloop.kernel.extract.monitor_terms import (
+    MonitorError,
+    fresh,
+    numpy_conversion,
+    term,
+    theorem_symbols,
+)
+from certiloop.kernel.extract.scalar import KIT, STEP, Python
+from certiloop.kernel.extract.shapes import latched_scalars
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, And, ModelError, Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -107,7 +113,7 @@ def monitors(theorem: Theorem) -> str:
 
 def _monitors(theorem: Theorem) -> str:
     try:
-        step = _split(theorem)
+        step = split(theorem)
         src_controller = extract(theorem)
         state, command, ctrl_code = _controller_monitor(theorem, step, src_controller)
         plant_state, plant_params, plant_code, plant_how = _plant_monitor(theorem, step)
@@ -151,24 +157,24 @@ def _assigned_names(p: Program) -> set[str]:
     return out
 
 
-def _scalar_outputs(theorem: Theorem, step: _Step) -> tuple[list[Program], list[str], dict[str, Node]]:
+def _scalar_outputs(theorem: Theorem, step: Step) -> tuple[list[Program], list[str], dict[str, Node]]:
     """The step's statements (with the mode choice for a switched plant), its outputs as the
     extracted controller returns them, and the symbols (rates included)."""
     parts = list(step.parts)
-    symbols = _symbols(theorem)
+    symbols = theorem_symbols(theorem)
     live = set(step.reads)
     if step.where == "modes":
-        modes, rates = _mode_choice(step.plant, symbols)
+        modes, rates = mode_choice(step.plant, symbols)
         symbols.update((r, Var(r, REAL)) for r in rates)
         return parts + [modes], rates, symbols
-    py = _Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
+    py = Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
     py.block(parts)
-    latches = _latches(parts, py.params) if step.where in ("before", "after") else set()
+    latches = latched_scalars(parts, py.params) if step.where in ("before", "after") else set()
     if latches - live:
         live |= latches
-        py = _Python(symbols, live, Seq(tuple(parts)))
+        py = Python(symbols, live, Seq(tuple(parts)))
         py.block(parts)
-    outputs = _outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
+    outputs = step_outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
     outputs += [v for v in py.assigned if v in latches and v not in outputs]
     return parts, outputs, symbols
 
@@ -187,7 +193,7 @@ def _deterministic(p: Program, top: bool = True) -> bool:
     if isinstance(p, Choice):
         if len(p.alternatives) != 2:
             return False
-        first = [_parts(a)[0] for a in p.alternatives]
+        first = [seq_parts(a)[0] for a in p.alternatives]
         if not all(isinstance(f, Test) for f in first):
             return False
         c0, c1 = first[0].cond, first[1].cond
@@ -201,8 +207,8 @@ def _deterministic(p: Program, top: bool = True) -> bool:
     return True
 
 
-def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> tuple[list, list, str]:
-    if _uses_families(step.parts) and not _families_only_tested(step.parts):
+def _controller_monitor(theorem: Theorem, step: Step, controller_src: str) -> tuple[list, list, str]:
+    if uses_families(step.parts) and not families_only_tested(step.parts):
         return family_controller_monitor(theorem, step, controller_src)
     parts, outputs, symbols = _scalar_outputs(theorem, step)
     if _has_loop(Seq(tuple(parts))):
@@ -210,8 +216,8 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
             raise MonitorError("the step has loops and nondeterministic choices: no monitor")
         return _rerun_monitor(controller_src, outputs)
     taken = set(symbols) | {"tol", "state", "command", "math", "np", KIT, "_decide", "_controller_monitor"}
-    tol = _fresh(taken, "tol")
-    cmd = {o: _fresh(taken, f"cmd_{o}") for o in outputs}
+    tol = fresh(taken, "tol")
+    cmd = {o: fresh(taken, f"cmd_{o}") for o in outputs}
     # leading `x := *` that no earlier statement touches: the controller's inputs (hoisted)
     hoisted, rest, touched = [], [], set()
     assigned_anywhere = _assigned_names(Seq(tuple(parts)))
@@ -228,7 +234,7 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
             continue
         rest.append(_fix_output_havocs(q, {o: c for o, c in cmd.items()
                                            if not _pinned(Seq(tuple(parts)), o)}))
-        touched |= set(written(q)) | _reads(q)
+        touched |= set(written(q)) | reads_of(q)
     match, closes = [], {}
     for o in outputs:
         s = symbols[o].sort
@@ -244,7 +250,7 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
     body = Seq((*rest, Test(And(*match))))
     program = [*hoisted, Choice((body,), ("step",))]
     live = set(outputs) | {"__ok"}
-    py = _Python({**symbols, tol: Var(tol, REAL), **{c: Var(c, symbols[o].sort) for o, c in cmd.items()}},
+    py = Python({**symbols, tol: Var(tol, REAL), **{c: Var(c, symbols[o].sort) for o, c in cmd.items()}},
                  live, Seq(tuple(program)))
     py.kit, py.closes = KIT, closes
     try:
@@ -275,7 +281,7 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
             continue
         # a non-finite real is outside the model's domain: no run, False
         real = sort == REAL or sort.is_array and sort.range == REAL
-        conv = (KIT + ".real" if sort == REAL else KIT + ".array") if real else _conv(sort)
+        conv = (KIT + ".real" if sort == REAL else KIT + ".array") if real else numpy_conversion(sort)
         lines.append(f"    {v} = {conv}({source})")
     lines.append("    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):")
     blocked = "return False"
@@ -288,10 +294,10 @@ def _controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> t
 def _pinned(p: Program, name: str) -> bool:
     """Some test of the step pins `name` by an equation (`?x = th + u*dt`): its value is solved
     from it (exactly, in the reals), and the command is matched with that value within tol."""
-    from certiloop.kernel.extract.analysis import _conjuncts, _mentions
+    from certiloop.kernel.extract.analysis import conjuncts, mentions
 
     if isinstance(p, Test):
-        return any(a.op == "cmp" and a.payload == "==" and _mentions(a, name) for a in _conjuncts(p.cond))
+        return any(a.op == "cmp" and a.payload == "==" and mentions(a, name) for a in conjuncts(p.cond))
     parts = p.parts if isinstance(p, Seq) else p.alternatives if isinstance(p, Choice) else ()
     return any(_pinned(q, name) for q in parts)
 
@@ -337,12 +343,12 @@ def _rerun_monitor(controller_src: str, outputs: list[str]) -> tuple[list, list,
 # --------------------------------------------------------------------------- plant monitor
 
 
-def _plant_modes(theorem: Theorem, step: _Step) -> list[tuple[list[Assign], ODE]]:
+def _plant_modes(theorem: Theorem, step: Step) -> list[tuple[list[Assign], ODE]]:
     """Each mode of the plant: its initialisation (clock resets) and its ODE."""
     if step.plant is None:
         return []
     if isinstance(step.plant, ODE):
-        body = _parts(theorem.program.body)
+        body = seq_parts(theorem.program.body)
         k = body.index(step.plant)
         flows = {v.payload for v in step.plant.variables}
         init: list[Assign] = []
@@ -354,15 +360,15 @@ def _plant_modes(theorem: Theorem, step: _Step) -> list[tuple[list[Assign], ODE]
         return [(init, step.plant)]
     modes = []
     for alt in step.plant.alternatives:
-        parts = _parts(alt)
+        parts = seq_parts(alt)
         pre = parts[:-1]
         if any(not (isinstance(q, Assign) and q.target.op == "var") for q in pre):
-            raise MonitorError(f"the plant mode `{_brief(alt)}` does more than initialise its ODE")
+            raise MonitorError(f"the plant mode `{brief(alt)}` does more than initialise its ODE")
         modes.append((list(pre), parts[-1]))
     return modes
 
 
-def _plant_monitor(theorem: Theorem, step: _Step) -> tuple[list, list, str, str]:
+def _plant_monitor(theorem: Theorem, step: Step) -> tuple[list, list, str, str]:
     from certiloop.proofs.core.wp import flow_solution
 
     modes = _plant_modes(theorem, step)
@@ -386,11 +392,11 @@ def _plant_monitor(theorem: Theorem, step: _Step) -> tuple[list, list, str, str]
         params.update(dict.fromkeys(sorted(r for r in reads if r not in names)))
         s, sol = flow_solution(ode)
         lines = [f"def _mode{n}(x0, x1, dt, tol):",
-                 f'    """{_brief(ode, 86)}"""',
+                 f'    """{brief(ode, 86)}"""',
                  "    s0 = dict(x0)"]
         for a in init:
-            lines.append(f"    s0[{a.target.payload!r}] = {_term(a.value, 's0')}")
-        lines.append(f"    if not {_term(ode.domain, 's0')}:")
+            lines.append(f"    s0[{a.target.payload!r}] = {term(a.value, 's0')}")
+        lines.append(f"    if not {term(ode.domain, 's0')}:")
         lines.append("        return False")
         lines.append("    s1 = dict(s0)")
         if sol is not None:
@@ -399,7 +405,7 @@ def _plant_monitor(theorem: Theorem, step: _Step) -> tuple[list, list, str, str]
             lines.append(f"    {env} = dict(s0)")
             lines.append(f"    {env}[{s.payload!r}] = dt")
             for name in names:
-                lines.append(f"    want = {_term(sol[name], env)}")
+                lines.append(f"    want = {term(sol[name], env)}")
                 lines.append(f"    if {name!r} in x1:")
                 lines.append(f"        if not (abs(float(x1[{name!r}]) - want) <= tol):")
                 lines.append("            return False")
@@ -429,7 +435,7 @@ def _plant_monitor(theorem: Theorem, step: _Step) -> tuple[list, list, str, str]
             lines.append("        else:")
             lines.append("            return False  # a variable the observation lacks and the enclosure "
                          "cannot pin")
-        lines.append(f"    return bool({_term(ode.domain, 's1')})")
+        lines.append(f"    return bool({term(ode.domain, 's1')})")
         mode_fns.append("\n".join(lines) + "\n")
     calls = " or ".join(f"_mode{n}(prev_state, next_state, dt, tol)" for n in range(len(modes)))
     code = "\n\n".join(mode_fns) + "\n\n" + "\n".join([
@@ -473,7 +479,7 @@ def _iterm(n: Node, env: str) -> str:
         return f"_idiv({a[0]}, {a[1]})"
     if op == "^":
         return f"_ipow({a[0]}, {n.payload})"
-    raise MonitorError(f"cannot enclose `{_brief(n)}`: not an arithmetic term")
+    raise MonitorError(f"cannot enclose `{brief(n)}`: not an arithmetic term")
 
 
 # helpers every generated monitor module carries (plain Python + numpy: no certiloop import)

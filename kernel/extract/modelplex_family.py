@@ -17,11 +17,17 @@ before the loop must hold for every boundary.
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.analysis import _conjuncts, _is_index_sort, _outputs, _parts, _Step
-from certiloop.kernel.extract.errors import ExtractError, _brief
-from certiloop.kernel.extract.monitor_terms import MonitorError, _conv, _fresh, _symbols, _term
-from certiloop.kernel.extract.scalar import _Python
-from certiloop.kernel.extract.vectorised import _min_update
+from certiloop.kernel.extract.analysis import Step, conjuncts, is_index_sort, seq_parts, step_outputs
+from certiloop.kernel.extract.errors import ExtractError, brief
+from certiloop.kernel.extract.monitor_terms import (
+    MonitorError,
+    fresh,
+    numpy_conversion,
+    term,
+    theorem_symbols,
+)
+from certiloop.kernel.extract.scalar import Python
+from certiloop.kernel.extract.vectorised import min_update
 from certiloop.models.lang.programs import Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import BOOL, REAL, And, Node, Var
 from certiloop.models.lang.theorem import Theorem
@@ -49,18 +55,18 @@ def _scalarise_program(p: Program, index: str) -> Program:
         return Seq(tuple(_scalarise_program(q, index) for q in p.parts))
     if isinstance(p, Choice):
         return Choice(tuple(_scalarise_program(q, index) for q in p.alternatives), p.labels)
-    raise MonitorError(f"cannot monitor `{_brief(p)}` inside the boundary loop")
+    raise MonitorError(f"cannot monitor `{brief(p)}` inside the boundary loop")
 
 
 def _bound(f: Node) -> tuple[str, Node] | None:
     """`∀j φ(j)` over an index sort: (j, φ)."""
-    if f.op == "forall" and len(f.payload) == 1 and _is_index_sort(f.payload[0].sort):
+    if f.op == "forall" and len(f.payload) == 1 and is_index_sort(f.payload[0].sort):
         return f.payload[0].payload, f.args[0]
     return None
 
 
-def family_controller_monitor(theorem: Theorem, step: _Step, controller_src: str) -> tuple[list, list, str]:
-    symbols = _symbols(theorem)
+def family_controller_monitor(theorem: Theorem, step: Step, controller_src: str) -> tuple[list, list, str]:
+    symbols = theorem_symbols(theorem)
     loops = [q for q in step.parts if isinstance(q, Loop) and q.each is not None]
     if len(loops) != 1:
         raise MonitorError("a step with other than one foreach over the boundaries: no controller monitor")
@@ -81,10 +87,10 @@ def family_controller_monitor(theorem: Theorem, step: _Step, controller_src: str
         if isinstance(q, Test):
             if done in {s for s in _names(q.cond)}:
                 continue  # the foreach's own bookkeeping
-            for atom in _conjuncts(q.cond):
+            for atom in conjuncts(q.cond):
                 bound = _bound(atom)
                 if bound is None:
-                    pre.append(f"    if not {_term(atom, 'b')}:")
+                    pre.append(f"    if not {term(atom, 'b')}:")
                     pre.append("        return False")
                     continue
                 j, body = bound
@@ -92,40 +98,40 @@ def family_controller_monitor(theorem: Theorem, step: _Step, controller_src: str
                 if pinned and body.args[0].args[0].payload in pending:
                     fam = body.args[0].args[0].payload
                     value = _scalarise(body.args[1], j)
-                    pre.append(f"    b[{fam!r}] = np.array([bool({_term(value, 'c')}) for c in _cells(b, m)])"
-                               f"  # from {_brief(atom, 60)}")
+                    pre.append(f"    b[{fam!r}] = np.array([bool({term(value, 'c')}) for c in _cells(b, m)])"
+                               f"  # from {brief(atom, 60)}")
                     pending.discard(fam)
                     pins[fam] = None
                     continue
-                pre.append(f"    if not all({_term(_scalarise(body, j), 'c')} for c in _cells(b, m)):")
+                pre.append(f"    if not all({term(_scalarise(body, j), 'c')} for c in _cells(b, m)):")
                 pre.append("        return False")
             continue
         if isinstance(q, Assign) and q.target.op == "var":
-            pre.append(f"    b[{q.target.payload!r}] = {_term(q.value, 'b')}")
+            pre.append(f"    b[{q.target.payload!r}] = {term(q.value, 'b')}")
             scalars_assigned[q.target.payload] = None
             continue
-        raise MonitorError(f"cannot monitor `{_brief(q)}` before the boundary loop")
+        raise MonitorError(f"cannot monitor `{brief(q)}` before the boundary loop")
     # a family `F := *` no test pins (the requested active set): an input, given in the state
-    steps = _parts(loop.body)
+    steps = seq_parts(loop.body)
     index = steps[0].target.payload
     inner = steps[2:-1]
-    reductions = [r for r in (_min_update(s) for s in inner) if r is not None]
+    reductions = [r for r in (min_update(s) for s in inner) if r is not None]
     if len(reductions) != 1:
         raise MonitorError("the boundary loop does not fold exactly one k := min(k, ...)")
     k, value = reductions[0]
-    body = [_scalarise_program(s, index) for s in inner if _min_update(s) is None]
-    from certiloop.kernel.extract.analysis import _reads
+    body = [_scalarise_program(s, index) for s in inner if min_update(s) is None]
+    from certiloop.kernel.extract.analysis import reads_of
 
-    if k in _reads(Seq(tuple(body))) or k in _names(value):
+    if k in reads_of(Seq(tuple(body))) or k in _names(value):
         raise MonitorError(f"a boundary's value reads the running `{k}`: the boundaries are not independent")
-    outputs = list(dict.fromkeys(_outputs(theorem, step, [*scalars_assigned, *pins, k], [], set())))
+    outputs = list(dict.fromkeys(step_outputs(theorem, step, [*scalars_assigned, *pins, k], [], set())))
     if k not in outputs:
         raise MonitorError(f"the folded `{k}` is not an output of the step")
     for o in outputs:
         if o != k and o not in pins:
             raise MonitorError(f"the output `{o}` is neither the folded minimum nor a pinned family")
     taken = set(symbols) | {"b", "c", "m", "np", "math", "tol", "state", "command"}
-    tol, cmd = _fresh(taken, "tol"), _fresh(taken, f"cmd_{k}")
+    tol, cmd = fresh(taken, "tol"), fresh(taken, f"cmd_{k}")
     kt = _scalarise(value, index)
     real = lambda name: Var(name, REAL)  # noqa: E731
     ge = _boundary_fn("_boundary_ge", body, kt >= real(cmd) - real(tol), symbols, index, cmd, tol)
@@ -136,7 +142,7 @@ def family_controller_monitor(theorem: Theorem, step: _Step, controller_src: str
     member = _scalarise(loop.each.member, loop.each.index.payload) if loop.each.member.op != "true" else None
     read = _pre_names(step, loop) | set(ge_params) | set(eq_params)
     fams = sorted(n for n, s in symbols.items()
-                  if s.sort.is_array and any(_is_index_sort(d) for d in s.sort.domain)
+                  if s.sort.is_array and any(is_index_sort(d) for d in s.sort.domain)
                   and n != done and n in read)
     scalars = sorted({p for p in (*ge_params, *eq_params) if p not in fams and p not in pins
                       and p not in scalars_assigned}
@@ -150,7 +156,7 @@ def family_controller_monitor(theorem: Theorem, step: _Step, controller_src: str
              "        return False",
              "    b = {}"]
     for v in scalars:
-        lines.append(f"    b[{v!r}] = {_conv(symbols[v].sort)}(state[{v!r}])")
+        lines.append(f"    b[{v!r}] = {numpy_conversion(symbols[v].sort)}(state[{v!r}])")
     for f in fams:
         lines.append(f"    b[{f!r}] = np.asarray(state[{f!r}])")
     lines.append(f"    m = len(b[{fams[0]!r}])" if fams else "    m = 0")
@@ -169,7 +175,7 @@ def family_controller_monitor(theorem: Theorem, step: _Step, controller_src: str
     lines.append(f"        hit = bool(k0 <= {cmd} + tol)")
     lines.append("        for c in _cells(b, m):")
     if member is not None:
-        lines.append(f"            if not {_term(member, 'c')}:")
+        lines.append(f"            if not {term(member, 'c')}:")
         lines.append("                continue  # the loop does not visit this boundary")
     lines.append(f"            if not _boundary_ge(c, {cmd}, tol):")
     lines.append("                return False  # every value this boundary allows is below the command")
@@ -191,7 +197,7 @@ def _names(n: Node) -> set[str]:
     return set(free_vars(n))
 
 
-def _pre_names(step: _Step, loop: Loop) -> set[str]:
+def _pre_names(step: Step, loop: Loop) -> set[str]:
     """Every name the statements before the loop and its member test read."""
     out = _names(loop.each.member)
     for q in step.parts:
@@ -202,7 +208,7 @@ def _pre_names(step: _Step, loop: Loop) -> set[str]:
     return out
 
 
-def _pre_reads(step: _Step, loop: Loop, symbols, done: str, pins, assigned) -> set[str]:
+def _pre_reads(step: Step, loop: Loop, symbols, done: str, pins, assigned) -> set[str]:
     """Scalars the statements before the loop (and the loop's member test) read."""
     out: set[str] = set()
     for q in step.parts:
@@ -213,7 +219,7 @@ def _pre_reads(step: _Step, loop: Loop, symbols, done: str, pins, assigned) -> s
             out |= _names(n)
     out |= _names(loop.each.member)
     return {v for v in out if v in symbols and not symbols[v].sort.is_array
-            and not _is_index_sort(symbols[v].sort) and v != done and v not in pins and v not in assigned}
+            and not is_index_sort(symbols[v].sort) and v != done and v not in pins and v not in assigned}
 
 
 def _boundary_fn(name: str, body: list[Program], goal: Node, symbols, index: str, cmd: str,
@@ -223,7 +229,7 @@ def _boundary_fn(name: str, body: list[Program], goal: Node, symbols, index: str
     local[cmd] = Var(cmd, REAL)
     local[tol] = Var(tol, REAL)
     program = [Choice((Seq((*body, Test(goal))),), ("boundary",))]
-    py = _Python(local, {"__none"}, Seq(tuple(program)))
+    py = Python(local, {"__none"}, Seq(tuple(program)))
     try:
         py.block(program)
     except ExtractError as exc:
@@ -232,7 +238,7 @@ def _boundary_fn(name: str, body: list[Program], goal: Node, symbols, index: str
     lines = [f"def {name}(c, {cmd}, {tol}):"]
     for p in params:
         sort = local[p].sort
-        lines.append(f"    {p} = {_conv(sort) if sort != BOOL else 'bool'}(c[{p!r}])")
+        lines.append(f"    {p} = {numpy_conversion(sort) if sort != BOOL else 'bool'}(c[{p!r}])")
     lines.append("    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):")
     lines += [text.replace("return __BLOCKED__", "return False") for text in py.lines]
     lines.append("    return True")

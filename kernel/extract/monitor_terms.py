@@ -1,10 +1,10 @@
 """What the generated monitors share: the one error they raise (MonitorError, a one-line
 ExtractError), fresh names, the model's symbols, how a value of a sort is converted on entry,
-and a term or a quantifier-free formula as Python over a dict of values (`_term`)."""
+and a term or a quantifier-free formula as Python over a dict of values (`term`)."""
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.errors import ExtractError, _brief
+from certiloop.kernel.extract.errors import ExtractError, brief
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node, free_vars
 from certiloop.models.lang.theorem import Theorem
 
@@ -13,7 +13,7 @@ class MonitorError(ExtractError):
     """No monitor can be generated for this model's shape."""
 
 
-def _fresh(taken: set[str], base: str) -> str:
+def fresh(taken: set[str], base: str) -> str:
     name, n = base, 2
     while name in taken:
         name, n = f"{base}{n}", n + 1
@@ -21,11 +21,11 @@ def _fresh(taken: set[str], base: str) -> str:
     return name
 
 
-def _symbols(theorem: Theorem) -> dict[str, Node]:
+def theorem_symbols(theorem: Theorem) -> dict[str, Node]:
     return {**free_vars(theorem.assumptions), **theorem.program.symbols(), **free_vars(theorem.guarantee)}
 
 
-def _conv(sort) -> str:
+def numpy_conversion(sort) -> str:
     if sort == REAL:
         return "np.float64"
     if sort == INT:
@@ -35,7 +35,7 @@ def _conv(sort) -> str:
     return "np.asarray"
 
 
-def _term(n: Node, env: str) -> str:
+def term(n: Node, env: str) -> str:
     """A real term or a quantifier-free formula as Python over the dict `env`."""
     op = n.op
     if op == "const":
@@ -46,7 +46,7 @@ def _term(n: Node, env: str) -> str:
         return "False"
     if op == "var":
         return f"{env}[{n.payload!r}]"
-    a = [_term(x, env) for x in n.args]
+    a = [term(x, env) for x in n.args]
     if op == "+":
         return "(" + " + ".join(a) + ")"
     if op == "*":
@@ -67,4 +67,4 @@ def _term(n: Node, env: str) -> str:
         return f"(not {a[0]})"
     if op == "implies":
         return f"((not {a[0]}) or {a[1]})"
-    raise MonitorError(f"cannot monitor `{_brief(n)}`: not an arithmetic term or a quantifier-free formula")
+    raise MonitorError(f"cannot monitor `{brief(n)}`: not an arithmetic term or a quantifier-free formula")

@@ -1,5 +1,5 @@
 """Solving a test for the value it pins down: `x := *; ?a*x + b = 0` becomes x = -b/a guarded
-by a != 0 (`_solve`, for the vectorised code), and for the scalar code `_solutions` also solves
+by a != 0 (`solve`, for the vectorised code), and for the scalar code `solutions` also solves
 quadratics, giving each root (+sqrt first, then -sqrt, then the linear case where a symbolic
 leading coefficient vanishes) with its guards, in the order the generated code tries them.
 sympy and the core's symbolic bridge are imported only when an equation is solved."""
@@ -8,11 +8,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from certiloop.kernel.extract.errors import ExtractError, _brief
+from certiloop.kernel.extract.errors import ExtractError, brief
 from certiloop.models.lang.terms import Node
 
 
-def _solve(atom: Node, name: str) -> tuple[Node, Node]:
+def solve(atom: Node, name: str) -> tuple[Node, Node]:
     """(x, a) with atom ⟺ x = value when a ≠ 0, for a linear equation a·x + b = 0."""
     import sympy
 
@@ -24,7 +24,7 @@ def _solve(atom: Node, name: str) -> tuple[Node, Node]:
     try:
         g = sympy.expand(to_sympy(atom.args[0] - atom.args[1], table))
     except TypeError:
-        raise ExtractError(f"cannot solve `{_brief(atom)}` for `{name}`: not arithmetic") from None
+        raise ExtractError(f"cannot solve `{brief(atom)}` for `{name}`: not arithmetic") from None
     xs = [s for s in g.free_symbols if _is(table.atom(s), name)]
     if len(xs) != 1:
         raise ExtractError(f"cannot solve `{atom}` for `{name}`")
@@ -42,7 +42,7 @@ def _is(atom: Node, name: str) -> bool:
 
 
 @dataclass
-class _Root:
+class Root:
     """One solution of an equation for x: guards (formulas), then the value."""
 
     guards: list[Node]
@@ -51,7 +51,7 @@ class _Root:
     note: str = ""
 
 
-def _solutions(atom: Node, name: str) -> list[_Root]:
+def solutions(atom: Node, name: str) -> list[Root]:
     """The solutions of an equation that pins `name`, in the order they are tried: a
     linear a·x + b = 0 has one (guarded by a ≠ 0); a quadratic has two, the one with
     +sqrt first (guarded by a ≠ 0 and a non-negative discriminant), then the linear one
@@ -61,22 +61,22 @@ def _solutions(atom: Node, name: str) -> list[_Root]:
     from certiloop.proofs.core.symbolic import SympyTable, from_sympy, to_sympy
 
     if atom.op != "cmp" or atom.payload != "==" or not atom.args[0].sort.is_numeric:
-        raise ExtractError(f"`{name} := *` must be pinned by an equation before `{_brief(atom)}` reads it")
+        raise ExtractError(f"`{name} := *` must be pinned by an equation before `{brief(atom)}` reads it")
     table = SympyTable()
     try:
         g = sympy.expand(to_sympy(atom.args[0] - atom.args[1], table))
     except TypeError:
-        raise ExtractError(f"cannot solve `{_brief(atom)}` for `{name}`: not arithmetic") from None
+        raise ExtractError(f"cannot solve `{brief(atom)}` for `{name}`: not arithmetic") from None
     xs = [s for s in g.free_symbols if _is(table.atom(s), name)]
     if len(xs) != 1:
-        raise ExtractError(f"cannot solve `{_brief(atom)}` for `{name}`")
+        raise ExtractError(f"cannot solve `{brief(atom)}` for `{name}`")
     x = xs[0]
     try:
         poly = sympy.Poly(g, x)
     except sympy.PolynomialError:
-        raise ExtractError(f"`{_brief(atom)}` is not polynomial in `{name}`") from None
+        raise ExtractError(f"`{brief(atom)}` is not polynomial in `{name}`") from None
     if poly.degree() not in (1, 2):
-        raise ExtractError(f"`{_brief(atom)}` has degree {poly.degree()} in `{name}`: only linear and "
+        raise ExtractError(f"`{brief(atom)}` has degree {poly.degree()} in `{name}`: only linear and "
                            "quadratic equations are solved")
     a2, a1, a0 = (sympy.expand(poly.coeff_monomial(x**d)) for d in (2, 1, 0))
     back = lambda e: from_sympy(sympy.together(e), table)  # noqa: E731
@@ -87,23 +87,23 @@ def _solutions(atom: Node, name: str) -> list[_Root]:
     try:
         return _roots(poly.degree(), a2, a1, a0, back, nonzero)
     except TypeError:  # from_sympy: a term the model language cannot write
-        raise ExtractError(f"cannot solve `{_brief(atom)}` for `{name}`") from None
+        raise ExtractError(f"cannot solve `{brief(atom)}` for `{name}`") from None
 
 
-def _roots(degree: int, a2, a1, a0, back, nonzero) -> list[_Root]:
+def _roots(degree: int, a2, a1, a0, back, nonzero) -> list[Root]:
     if degree == 1:
-        return [_Root(nonzero(a1), "value", (back(-a0 / a1),))]
+        return [Root(nonzero(a1), "value", (back(-a0 / a1),))]
     import sympy
 
-    roots: list[_Root]
+    roots: list[Root]
     if a1 == 0:
         radicand = sympy.together(-a0 / a2)
-        roots = [_Root([*nonzero(a2), back(radicand) >= 0], kind, (back(radicand),), note)
+        roots = [Root([*nonzero(a2), back(radicand) >= 0], kind, (back(radicand),), note)
                  for kind, note in (("sqrt+", ""), ("sqrt-", " (negative root)"))]
     else:
         disc = sympy.expand(a1**2 - 4 * a2 * a0)
-        roots = [_Root([*nonzero(a2), back(disc) >= 0], kind, (back(a1), back(disc), back(a2)), note)
+        roots = [Root([*nonzero(a2), back(disc) >= 0], kind, (back(a1), back(disc), back(a2)), note)
                  for kind, note in (("quad+", ""), ("quad-", " (second root)"))]
     if not a2.is_number and a1 != 0:
-        roots.append(_Root([back(a2) == 0, *nonzero(a1)], "value", (back(-a0 / a1),), " (linear case)"))
+        roots.append(Root([back(a2) == 0, *nonzero(a1)], "value", (back(-a0 / a1),), " (linear case)"))
     return roots

@@ -1,7 +1,7 @@
 """The scalar code shape: every step without a family (scalar controllers, switched plant
 modes, algorithms over arrays) becomes plain Python with `if`/`elif` chains for choices (nested
 choices flattened into paths, the first enabled one in the model's order taken), `for` loops,
-equations solved into guarded values, and an early return when the model has no run. `_python`
+equations solved into guarded values, and an early return when the model has no run. `python`
 returns the whole generated module's source, with a docstring written for its outputs."""
 
 from __future__ import annotations
@@ -9,20 +9,20 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from certiloop.kernel.extract.analysis import (
-    _conjuncts,
-    _for_range_at,
-    _is_index_sort,
-    _mentions,
-    _mode_choice,
-    _outputs,
-    _parts,
-    _reads,
-    _Step,
+    Step,
+    conjuncts,
+    for_range_at,
+    is_index_sort,
+    mentions,
+    mode_choice,
+    reads_of,
+    seq_parts,
+    step_outputs,
 )
-from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
-from certiloop.kernel.extract.roots import _Root, _solutions
-from certiloop.kernel.extract.shapes import _elementwise, _is_annotation, _latches, _pins_first
-from certiloop.kernel.extract.template import ENTRY, HEADER, RESERVED, SCALAR, _check_names, _power, _tag
+from certiloop.kernel.extract.errors import ExtractError, brief, refuse
+from certiloop.kernel.extract.roots import Root, solutions
+from certiloop.kernel.extract.shapes import elementwise, is_annotation, latched_scalars, pins_first
+from certiloop.kernel.extract.template import ENTRY, HEADER, RESERVED, SCALAR, check_names, choice_tag, power
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -35,7 +35,7 @@ STEP = "_step"  # the generated one-pass function the entry runs with each kit
 
 
 @dataclass
-class _Path:
+class Path:
     """One way through an alternative (nested choices flattened): its conditions and
     helper values in order, then its effects."""
 
@@ -46,11 +46,11 @@ class _Path:
     effects: dict[str, str] = field(default_factory=dict)  # variable -> value code
     cells: list[tuple[str, str, str]] = field(default_factory=list)  # (array, indices, value)
 
-    def fork(self, tag: str, label: str) -> "_Path":
-        return _Path(tag, label, list(self.items), dict(self.subst), dict(self.effects), list(self.cells))
+    def fork(self, tag: str, label: str) -> "Path":
+        return Path(tag, label, list(self.items), dict(self.subst), dict(self.effects), list(self.cells))
 
 
-class _Python:
+class Python:
     """Plain scalar Python: `if`/`elif` for choices, `for` loops, early return when the
     model has no run."""
 
@@ -119,8 +119,8 @@ class _Python:
             return "False"
         if op == "var":
             name = n.payload
-            if n.sort.is_array or _is_index_sort(n.sort):
-                raise _refuse(n, "a whole array or a family index in a scalar step")
+            if n.sort.is_array or is_index_sort(n.sort):
+                raise refuse(n, "a whole array or a family index in a scalar step")
             if name in subst:
                 if subst[name] is None:
                     raise ExtractError(f"`{name} := *` is read before a test pins it down; cannot extract")
@@ -129,13 +129,13 @@ class _Python:
         if op == "select":
             root = n.args[0].payload
             if f"[{root}]" in subst:
-                raise _refuse(n, f"reads {root} after the same alternative wrote one of its cells")
+                raise refuse(n, f"reads {root} after the same alternative wrote one of its cells")
             if self.elementwise is not None and len(n.args) == 2 and n.args[1].op == "var" \
                     and n.args[1].payload == self.elementwise:
                 self.read(root)  # the whole family, as a numpy array over the boundaries
                 return root
-            if any(_is_index_sort(s) for s in n.args[0].sort.domain):
-                raise _refuse(n, "a family over an index sort needs the vectorised form (a foreach)")
+            if any(is_index_sort(s) for s in n.args[0].sort.domain):
+                raise refuse(n, "a family over an index sort needs the vectorised form (a foreach)")
             idx = [self.code(a, subst) for a in n.args[1:]]
             self.array_reads.add(root)
             self.read(root)
@@ -158,13 +158,13 @@ class _Python:
                 return f"(-{a[0]})"
             if op == "/":
                 return f"{self.kit}.div({a[0]}, {a[1]})" if self.kit else f"({a[0]} / {a[1]})"
-            return _power(a[0], n.payload)
+            return power(a[0], n.payload)
         if op == "forall" and self.elementwise is None and len(n.payload) == 1 \
-                and _is_index_sort(n.payload[0].sort):
+                and is_index_sort(n.payload[0].sort):
             return self.over_family(n, subst)
         a = [self.code(x, subst) for x in n.args]
         if self.elementwise is not None and op in ("and", "or", "not", "implies", "iff"):
-            return _elementwise(op, a) if self.kit is None else _logical(op, a)
+            return elementwise(op, a) if self.kit is None else _logical(op, a)
         if op == "and":
             return "(" + " and ".join(a) + ")" if a else "True"
         if op == "or":
@@ -175,7 +175,7 @@ class _Python:
             return f"((not {a[0]}) or {a[1]})"
         if op == "iff":
             return f"({a[0]} == {a[1]})"
-        raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
+        raise refuse(n, "not an arithmetic term or a quantifier-free formula")
 
     def over_family(self, n: Node, subst: dict[str, str | None] | None) -> str:
         """`∀j φ(j)` over the boundaries: φ elementwise over the families as numpy arrays
@@ -190,7 +190,7 @@ class _Python:
         self.tested.update(free_vars(atom))
         return self.code(atom, subst)
 
-    def root_code(self, root: _Root, subst: dict[str, str | None]) -> str:
+    def root_code(self, root: Root, subst: dict[str, str | None]) -> str:
         c = [self.code(p, subst, True) for p in root.parts]
         if root.kind == "value":
             return c[0]
@@ -214,7 +214,7 @@ class _Python:
         parts = list(parts)
         k = 0
         while k < len(parts):
-            loop = _for_range_at(parts, k)
+            loop = for_range_at(parts, k)
             if loop is not None:
                 self.for_loop(parts[k: k + 3], *loop)
                 k += 3
@@ -241,20 +241,20 @@ class _Python:
         elif isinstance(q, Havoc) and q.target.op == "var" and not q.target.sort.is_array:
             self.opened[q.target.payload] = None
         elif isinstance(q, Havoc):
-            raise _refuse(q, "an array's or a cell's `:= *` is only extracted in a foreach")
+            raise refuse(q, "an array's or a cell's `:= *` is only extracted in a foreach")
         elif isinstance(q, Test):
             self.test(q)
         elif isinstance(q, Choice):
             self.choice(q)
-        elif _is_annotation(q):
+        elif is_annotation(q):
             pass  # `{?true}*` carries an invariant for the proof; it does nothing at run time
         elif isinstance(q, Loop):
-            raise _refuse(q, "only `for` loops (`i := lo; {?i < hi; ...; i := i + 1}*; ?i >= hi`) are "
+            raise refuse(q, "only `for` loops (`i := lo; {?i < hi; ...; i := i + 1}*; ?i >= hi`) are "
                           "extracted: a loop with no exit test repeats any number of times")
         elif isinstance(q, ODE):
-            raise _refuse(q, "a second ODE inside the control step")
+            raise refuse(q, "a second ODE inside the control step")
         else:
-            raise _refuse(q, "unknown statement")
+            raise refuse(q, "unknown statement")
 
     def array_write(self, root: str, target: Node) -> None:
         """Note the loop bounds that index a cell write (to allocate a write-only array)."""
@@ -271,19 +271,19 @@ class _Python:
         self.assigned[root] = None
 
     def test(self, q: Test) -> None:
-        for atom in _pins_first(_conjuncts(q.cond), list(self.opened)):
+        for atom in pins_first(conjuncts(q.cond), list(self.opened)):
             if atom.op == "true":
                 continue
-            target = next((v for v in self.opened if _mentions(atom, v)), None)
+            target = next((v for v in self.opened if mentions(atom, v)), None)
             if target is not None and atom.op == "cmp" and atom.payload == "==":
-                roots = _solutions(atom, target)
+                roots = solutions(atom, target)
                 if len(roots) != 1:
-                    raise _refuse(atom, f"a quadratic equation pins `{target}` outside a choice: which root "
+                    raise refuse(atom, f"a quadratic equation pins `{target}` outside a choice: which root "
                                   "to take depends on what follows; put it in a choice's alternative")
                 for g in roots[0].guards:
                     self.line(f"if not {self.test_code(g)}:")
                     self.line(f"    {BLOCKED}")
-                self.line(f"{target} = {self.root_code(roots[0], {})}  # from {_brief(atom)}")
+                self.line(f"{target} = {self.root_code(roots[0], {})}  # from {brief(atom)}")
                 del self.opened[target]
                 self.pinned.add(target)
                 self.defined.add(target)
@@ -295,13 +295,13 @@ class _Python:
     def for_loop(self, statements: list[Program], var: str, lo: Node, hi: Node, body: list[Program]) -> None:
         changed = written(Seq(tuple(body))) if body else {}
         if lo.sort != INT or hi.sort != INT:
-            raise _refuse(statements[1], "a `for` loop's bounds must be Int terms")
+            raise refuse(statements[1], "a `for` loop's bounds must be Int terms")
         for name in [var, *free_vars(lo), *free_vars(hi)]:
             if name in changed:
-                raise _refuse(statements[1], f"the loop's body writes `{name}`, which its counter or bounds "
+                raise refuse(statements[1], f"the loop's body writes `{name}`, which its counter or bounds "
                               "read")
         lo_code, hi_code = self.code(lo), self.code(hi)
-        later = _reads(self.step, skip={id(s) for s in statements})
+        later = reads_of(self.step, skip={id(s) for s in statements})
         for name, sym in changed.items():  # a value for the case the loop runs zero times
             if not sym.sort.is_array and name not in self.defined and name in (later | self.live):
                 self.read(name)
@@ -321,16 +321,16 @@ class _Python:
 
     # ---------------------------------------------------------------- choices
     def choice(self, p: Choice) -> None:
-        paths: list[_Path] = []
+        paths: list[Path] = []
         for k, (alt, label) in enumerate(zip(p.alternatives, p.labels)):
-            paths += self.walk(_parts(alt), [_Path(_tag(label, k), label)])
+            paths += self.walk(seq_parts(alt), [Path(choice_tag(label, k), label)])
             if len(paths) > MAX_PATHS:
-                raise _refuse(p, f"more than {MAX_PATHS} ways through its nested choices")
-        live = self.live | _reads(self.step, skip={id(p)})
+                raise refuse(p, f"more than {MAX_PATHS} ways through its nested choices")
+        live = self.live | reads_of(self.step, skip={id(p)})
         for path in paths:
             for v, s in path.subst.items():
                 if s is None and v in live and not v.startswith("["):
-                    raise _refuse(p, f"`{v} := *` in `{path.label}` is never pinned down but read later")
+                    raise refuse(p, f"`{v} := *` in `{path.label}` is never pinned down but read later")
         commits: list[list[str]] = []
         changed: dict[str, None] = {}
         for path in paths:
@@ -355,7 +355,7 @@ class _Python:
                 self.defined.add(root)
                 self.assigned[root] = None
 
-    def _elif_chain(self, paths: list[_Path], commits: list[list[str]]) -> None:
+    def _elif_chain(self, paths: list[Path], commits: list[list[str]]) -> None:
         for n, (path, body) in enumerate(zip(paths, commits)):
             conds = [item[1] for item in path.items if item[1] != "True"]
             if not conds:  # always enabled: the alternatives after it are never tried
@@ -377,7 +377,7 @@ class _Python:
         self.line("else:  # no alternative is enabled: the model has no run")
         self.line(f"    {BLOCKED}")
 
-    def _attempts(self, paths: list[_Path], commits: list[list[str]]) -> None:
+    def _attempts(self, paths: list[Path], commits: list[list[str]]) -> None:
         """Alternatives whose conditions need helper values (a solved `x := *`): each tried
         in turn, nested ifs so that every value is computed only where its guard holds."""
         self.line("taken = False")
@@ -405,27 +405,27 @@ class _Python:
         self.line("if not taken:  # no alternative is enabled: the model has no run")
         self.line(f"    {BLOCKED}")
 
-    def walk(self, statements: list[Program], paths: list[_Path]) -> list[_Path]:
+    def walk(self, statements: list[Program], paths: list[Path]) -> list[Path]:
         for q in statements:
             paths = [r for path in paths for r in self.in_path(q, path)]
             if len(paths) > MAX_PATHS:
-                raise _refuse(q, f"more than {MAX_PATHS} ways through nested choices")
+                raise refuse(q, f"more than {MAX_PATHS} ways through nested choices")
         return paths
 
-    def in_path(self, q: Program, path: _Path) -> list[_Path]:
+    def in_path(self, q: Program, path: Path) -> list[Path]:
         if isinstance(q, Seq):
             return self.walk(list(q.parts), [path])
         if isinstance(q, Choice):
-            out: list[_Path] = []
+            out: list[Path] = []
             for k, (alt, label) in enumerate(zip(q.alternatives, q.labels)):
-                sub = path.fork(f"{path.tag}_{_tag(label, k)}", f"{path.label} / {label}")
-                out += self.walk(_parts(alt), [sub])
+                sub = path.fork(f"{path.tag}_{choice_tag(label, k)}", f"{path.label} / {label}")
+                out += self.walk(seq_parts(alt), [sub])
             return out
-        if _is_annotation(q):
+        if is_annotation(q):
             return [path]
         if isinstance(q, Test):
             paths = [path]
-            for atom in _pins_first(_conjuncts(q.cond), [v for v, s in path.subst.items() if s is None]):
+            for atom in pins_first(conjuncts(q.cond), [v for v, s in path.subst.items() if s is None]):
                 if atom.op != "true":
                     paths = [r for p in paths for r in self.atom_in_path(atom, p)]
             return paths
@@ -446,13 +446,13 @@ class _Python:
             path.subst[f"[{root}]"] = None
             self.array_write(root, q.target)
             return [path]
-        raise _refuse(q, "only tests, assignments, `x := *` and choices are extracted inside a choice")
+        raise refuse(q, "only tests, assignments, `x := *` and choices are extracted inside a choice")
 
-    def atom_in_path(self, atom: Node, path: _Path) -> list[_Path]:
+    def atom_in_path(self, atom: Node, path: Path) -> list[Path]:
         target = next((v for v, s in path.subst.items() if s is None and not v.startswith("[")
-                       and _mentions(atom, v)), None)
+                       and mentions(atom, v)), None)
         if target is None:
-            target = next((v for v in self.opened if v not in path.subst and _mentions(atom, v)
+            target = next((v for v in self.opened if v not in path.subst and mentions(atom, v)
                            and atom.op == "cmp" and atom.payload == "=="), None)
         if target is None:
             path.items.append(("if", self.test_code(atom, path.subst)))
@@ -461,21 +461,21 @@ class _Python:
                 and (target not in self.defined or target in self.admitted) and target not in self.pinned:
             # `u := *; ?|u| <= U` with nothing pinning u: the value is an input, admitted as given
             for v in [v for v, s in path.subst.items() if s is None and not v.startswith("[")
-                      and _mentions(atom, v)]:
+                      and mentions(atom, v)]:
                 if v in self.defined and v not in self.admitted or v in self.pinned:
-                    raise _refuse(atom, f"`{v} := *` gets a new value after the step read or solved it")
+                    raise refuse(atom, f"`{v} := *` gets a new value after the step read or solved it")
                 self.inputs[v] = self.admitted[v] = None
                 path.subst[v] = self.read(v)
             path.items.append(("if", self.test_code(atom, path.subst)))
             return [path]
-        roots = _solutions(atom, target)
+        roots = solutions(atom, target)
         out = []
         for root in roots:
             r = path if len(roots) == 1 else path.fork(path.tag, path.label + root.note)
             for g in root.guards:
                 r.items.append(("if", self.test_code(g, r.subst)))
             name = self.fresh(f"{target}_{r.tag}")
-            r.items.append(("let", name, f"{self.root_code(root, r.subst)}  # from {_brief(atom)}"))
+            r.items.append(("let", name, f"{self.root_code(root, r.subst)}  # from {brief(atom)}"))
             r.subst[target] = name
             r.effects[target] = name
             self.pinned.add(target)
@@ -497,33 +497,33 @@ def _logical(op: str, a: list[str]) -> str:
     return f"(np.asarray({a[0]}, dtype=bool) == np.asarray({a[1]}, dtype=bool))"
 
 
-def _python(theorem: Theorem, step: "_Step") -> str:
+def python(theorem: Theorem, step: "Step") -> str:
     parts = list(step.parts)
     symbols = {**free_vars(theorem.assumptions), **theorem.program.symbols(), **free_vars(theorem.guarantee)}
     live = set(step.reads)
     rates: list[str] = []
     if step.where == "modes":
-        modes, rates = _mode_choice(step.plant, symbols)
+        modes, rates = mode_choice(step.plant, symbols)
         parts.append(modes)
         live |= set(rates)
         symbols.update((r, Var(r, REAL)) for r in rates)
-    py = _Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
+    py = Python(symbols, live, Seq(tuple(parts)) if parts else Test(Node("true", (), BOOL)))
     py.kit = KIT
     py.block(parts)
-    latches = _latches(parts, py.params) if step.where in ("before", "after") else set()
+    latches = latched_scalars(parts, py.params) if step.where in ("before", "after") else set()
     if latches - live:  # a value the step reads and sets (`stopped := 1`): the next step needs it
         live |= latches
-        py = _Python(symbols, live, Seq(tuple(parts)))
+        py = Python(symbols, live, Seq(tuple(parts)))
         py.kit = KIT
         py.block(parts)
     if py.pinned & set(py.inputs):
         both = sorted(py.pinned & set(py.inputs))
         raise ExtractError(f"`{both[0]} := *` is pinned by an equation on some paths and read as an input "
                            "on others; cannot extract")
-    outputs = rates or _outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
+    outputs = rates or step_outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
     outputs += [v for v in py.assigned if v in latches and v not in outputs]
     params = list(py.params)
-    _check_names(theorem, [*params, *py.assigned])
+    check_names(theorem, [*params, *py.assigned])
     sort = lambda v: symbols[v].sort  # noqa: E731
     scalars = [v for v in params if not sort(v).is_array]
     arrays = [v for v in params if sort(v).is_array]

@@ -5,12 +5,12 @@ boolean arrays (inside a `∀j` over the boundaries)."""
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.analysis import _mentions
+from certiloop.kernel.extract.analysis import mentions
 from certiloop.models.lang.programs import Assign, Choice, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import Node
 
 
-def _elementwise(op: str, a: list[str]) -> str:
+def elementwise(op: str, a: list[str]) -> str:
     """A connective over numpy boolean arrays (inside a `∀j` over the boundaries)."""
     if op == "and":
         return "(" + " & ".join(a) + ")" if a else "True"
@@ -23,7 +23,7 @@ def _elementwise(op: str, a: list[str]) -> str:
     return f"({a[0]} == {a[1]})"
 
 
-def _latches(parts: list[Program], params) -> set[str]:
+def latched_scalars(parts: list[Program], params) -> set[str]:
     """Scalars the step reads before it assigns them (`?stopped = 1 | ...; stopped := 1`):
     state carried from one step to the next, so an output."""
     assigned: set[str] = set()
@@ -40,19 +40,19 @@ def _latches(parts: list[Program], params) -> set[str]:
     return assigned & set(params)
 
 
-def _is_annotation(q: Program) -> bool:
+def is_annotation(q: Program) -> bool:
     """`{?true}*`: a loop that only carries an invariant for the proof."""
     return isinstance(q, Loop) and q.each is None and isinstance(q.body, Test) and q.body.cond.op == "true"
 
 
-def _pins_first(atoms: list[Node], open_names: list[str]) -> list[Node]:
+def pins_first(atoms: list[Node], open_names: list[str]) -> list[Node]:
     """Move an equation that pins an open `x := *` before the atoms that read x ahead of it
     (`?nrm >= 0 & nrm*nrm = n2` solves for nrm, then checks it); other atoms keep their
     order. The order of a conjunction does not change its value in the generated code: a
     division by zero gives inf/NaN, never an exception."""
     out = list(atoms)
     for name in open_names:
-        readers = [k for k, a in enumerate(out) if _mentions(a, name)]
+        readers = [k for k, a in enumerate(out) if mentions(a, name)]
         pin = next((k for k in readers if out[k].op == "cmp" and out[k].payload == "=="), None)
         if pin is not None and readers[0] < pin:
             out.insert(readers[0], out.pop(pin))

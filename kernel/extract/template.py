@@ -2,7 +2,7 @@
 (HEADER: docstring, imports, MODEL, MODEL_HASH, INPUTS, FAMILIES) and the docstring paragraphs
 that say how the code was generated (VECTORISED, SCALAR), the entry function's name, the names
 the generated code uses itself (RESERVED), the check that no model symbol clashes with them,
-and how a choice's branch label becomes a name in the code (`_tag`)."""
+and how a choice's branch label becomes a name in the code (`choice_tag`)."""
 
 from __future__ import annotations
 
@@ -56,7 +56,7 @@ RESERVED = set(keyword.kwlist) | {"np", "operator", "enabled", "taken", "skipped
 MAX_POWER = 8  # x^n up to this n is written as n - 1 multiplications
 
 
-def _power(base: str, n: int) -> str:
+def power(base: str, n: int) -> str:
     """x^n as repeated multiplication, (x * x * x) left to right: each product is one IEEE
     operation, so every back end (numpy, CPython, C) rounds it the same way and its error is
     easy to bound. `x ** 2` is not: CPython and numpy scalars call libm pow (not always the
@@ -68,12 +68,12 @@ def _power(base: str, n: int) -> str:
     return f"({base} ** {n})"
 
 
-def _tag(label: str, k: int) -> str:
+def choice_tag(label: str, k: int) -> str:
     word = re.sub(r"[^0-9a-zA-Z_]", "_", label.split()[0]) if label.split() else ""
     return word if word and not word[0].isdigit() else f"alt{k + 1}"
 
 
-def _check_names(theorem: Theorem, names: list[str], vectorised: bool = False) -> None:
+def check_names(theorem: Theorem, names: list[str], vectorised: bool = False) -> None:
     for name in names:
         generated = vectorised and re.fullmatch(r"t\d+|case_\w+", name)
         if name in RESERVED or not name.isidentifier() or generated:

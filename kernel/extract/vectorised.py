@@ -2,7 +2,7 @@
 reads of families) becomes numpy code over every boundary at once, one mask per alternative of
 each choice, `np.where` picking the first enabled alternative's value, and a min-update inside
 a `foreach` becoming a reduction (`k = min(k, min of kt)`). This is the shape of the shipped
-`studies/sbs/generated/ctrl2.py`; `_vectorised` returns the whole generated module's source."""
+`studies/sbs/generated/ctrl2.py`; `vectorised_source` returns the whole generated module's source."""
 
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ import re
 from dataclasses import dataclass, field
 
 from certiloop.kernel.extract import certified
-from certiloop.kernel.extract.analysis import _conjuncts, _is_index_sort, _mentions, _outputs, _sort_of, _Step
-from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
-from certiloop.kernel.extract.roots import _solve
-from certiloop.kernel.extract.template import ENTRY, HEADER, VECTORISED, _check_names, _power, _tag
+from certiloop.kernel.extract.analysis import Step, conjuncts, is_index_sort, mentions, sort_of, step_outputs
+from certiloop.kernel.extract.errors import ExtractError, brief, refuse
+from certiloop.kernel.extract.roots import solve
+from certiloop.kernel.extract.template import ENTRY, HEADER, VECTORISED, check_names, choice_tag, power
 from certiloop.models.lang.programs import Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import BOOL, REAL, Node
 from certiloop.models.lang.theorem import Theorem
@@ -63,8 +63,8 @@ class _Emitter:
             return "False"
         if op == "var":
             name = n.payload
-            if _is_index_sort(n.sort):
-                raise _refuse(n, "a family's index is only usable to read the family (f(i))")
+            if is_index_sort(n.sort):
+                raise refuse(n, "a family's index is only usable to read the family (f(i))")
             if name in subst:
                 return subst[name]
             if name in self.local:
@@ -82,7 +82,7 @@ class _Emitter:
                 return self.local[name]
             if self.pending.pop(name, False):
                 raise ExtractError(f"`{name} := *` gives {name} a new value after the step read it, and "
-                                   f"`{_brief(n)}` reads it before a test `∀j ({name}(j) <-> ...)` pins it")
+                                   f"`{brief(n)}` reads it before a test `∀j ({name}(j) <-> ...)` pins it")
             self.families[name] = None
             return name
         if op in ("forall", "exists"):
@@ -105,10 +105,10 @@ class _Emitter:
                 return f"np.divide({a[0]}, {a[1]})"  # two Python floats: inf, not ZeroDivisionError
             return f"({a[0]} / {a[1]})"
         if op == "^":
-            return _power(a[0], n.payload)
+            return power(a[0], n.payload)
         if op == "cmp":
             text = f"({a[0]} {n.payload} {a[1]})"
-            if any(_mentions(n, v) for v in subst):
+            if any(mentions(n, v) for v in subst):
                 return text  # reads a value solved inside one alternative: not shared
             return self._shared(text)
         if op == "and":
@@ -170,7 +170,7 @@ class _Emitter:
         if text in self.shared:
             name = self.shared[text]
         else:
-            name = text if any(_mentions(n, v) for v in subst) else self._shared(text)
+            name = text if any(mentions(n, v) for v in subst) else self._shared(text)
             check = certified.check(a, b)
             if check is not None:
                 if f"check {check}" not in self.shared:
@@ -195,8 +195,8 @@ class _Emitter:
     def _quantified(self, n: Node, subst: dict[str, str]) -> str:
         """∀j P(j) over the family's index: P for every member at once, then np.all."""
         bound = n.payload
-        if len(bound) != 1 or not _is_index_sort(bound[0].sort) or self.index is not None:
-            raise _refuse(n, "only a quantifier over one family index, outside a foreach, is vectorised")
+        if len(bound) != 1 or not is_index_sort(bound[0].sort) or self.index is not None:
+            raise refuse(n, "only a quantifier over one family index, outside a foreach, is vectorised")
         self.index = bound[0].payload
         try:
             body = self.code(n.args[0], subst)
@@ -244,7 +244,7 @@ class _Emitter:
             for q in p.parts:
                 self.statement(q)
         elif isinstance(p, Assign):
-            name = _target_name(p.target, self.index)
+            name = target_name(p.target, self.index)
             value, error = self.value(p.value, {})
             self._assigned(name)
             self.lines.append(f"{name} = {value}")
@@ -254,22 +254,22 @@ class _Emitter:
                 self.errors[name] = f"{name}_e"
             self.local[name] = name
             self.opened.discard(name)
-        elif isinstance(p, Havoc) and self.index is not None and _target_name(p.target, self.index):
+        elif isinstance(p, Havoc) and self.index is not None and target_name(p.target, self.index):
             # an auxiliary value (xtr(i)) that a later test pins down: open until then
-            name = _target_name(p.target, self.index)
+            name = target_name(p.target, self.index)
             self.local.pop(name, None)
             self.opened.add(name)
         elif isinstance(p, Choice):
             self.choice(p)
         elif isinstance(p, Test):
-            for atom in _conjuncts(p.cond):
+            for atom in conjuncts(p.cond):
                 if atom.op != "true":
                     self.lines.append(self.test(atom))
         else:
-            raise _refuse(p, "only assignments, tests, choices and min-updates are vectorised")
+            raise refuse(p, "only assignments, tests, choices and min-updates are vectorised")
 
     def choice(self, p: Choice) -> None:
-        tags = [_tag(label, k) for k, label in enumerate(p.labels)]
+        tags = [choice_tag(label, k) for k, label in enumerate(p.labels)]
         alts = [self.alternative(q, tag) for q, tag in zip(p.alternatives, tags)]
         self.lines.append(f"# choice: {' | '.join(p.labels)}")
         for alt, tag, label in zip(alts, tags, p.labels):
@@ -322,10 +322,10 @@ class _Emitter:
         try:
             for q in p.parts if isinstance(p, Seq) else (p,):
                 if isinstance(q, Test):
-                    for atom in _conjuncts(q.cond):
-                        solved = next((v for v in opened if v not in subst and _mentions(atom, v)), None)
+                    for atom in conjuncts(q.cond):
+                        solved = next((v for v in opened if v not in subst and mentions(atom, v)), None)
                         if solved is not None:
-                            value, divisor = _solve(atom, solved)
+                            value, divisor = solve(atom, solved)
                             if divisor.op != "const":  # x*1 = 1 needs no guard
                                 self.used = []
                                 alt.mask.append(self.code(divisor != 0, subst))
@@ -346,18 +346,18 @@ class _Emitter:
                             alt.mask.append(self.code(atom, subst))
                             alt.unsure.append(self.used)
                 elif isinstance(q, Havoc):
-                    name = _target_name(q.target, self.index)
+                    name = target_name(q.target, self.index)
                     opened.append(name)
                     subst.pop(name, None)
                 elif isinstance(q, Assign):
-                    name = _target_name(q.target, self.index)
+                    name = target_name(q.target, self.index)
                     alt.effects[name] = self.value(q.value, subst)
                     subst[name] = alt.effects[name][0]
                 elif isinstance(q, Choice):
-                    raise _refuse(q, "a choice nested in an alternative is not vectorised (flatten it "
+                    raise refuse(q, "a choice nested in an alternative is not vectorised (flatten it "
                                   "into the outer choice)")
                 else:
-                    raise _refuse(q, "only tests, assignments and `x := *` are vectorised inside a choice")
+                    raise refuse(q, "only tests, assignments and `x := *` are vectorised inside a choice")
         finally:
             self.lines = outer
         for v in opened:
@@ -370,7 +370,7 @@ def _reads_family(n: Node) -> bool:
     return n.op == "select" or any(_reads_family(a) for a in n.args)
 
 
-def _target_name(target: Node, index: str | None) -> str:
+def target_name(target: Node, index: str | None) -> str:
     if target.op == "var":
         return target.payload
     if target.op == "select" and len(target.args) == 2 and target.args[1].op == "var" \
@@ -379,7 +379,7 @@ def _target_name(target: Node, index: str | None) -> str:
     raise ExtractError(f"cannot vectorise the assignment to `{target}`")
 
 
-def _emit(step: "_Step", mode: str) -> tuple[_Emitter, list[str]]:
+def _emit(step: "Step", mode: str) -> tuple[_Emitter, list[str]]:
     """The step's statements as numpy code in one mode; returns the emitter and the
     variables reduced by a min over a family."""
     em = _Emitter(None, mode)
@@ -397,12 +397,12 @@ def _emit(step: "_Step", mode: str) -> tuple[_Emitter, list[str]]:
         elif isinstance(q, Havoc) and q.target.op == "var":
             continue  # an input: a parameter where the step reads it
         elif isinstance(q, Havoc):
-            raise _refuse(q, "a single cell's `:= *` outside a foreach is not vectorised")
+            raise refuse(q, "a single cell's `:= *` outside a foreach is not vectorised")
         elif isinstance(q, Test):
-            if any(_mentions(q.cond, f) for f in done):
+            if any(mentions(q.cond, f) for f in done):
                 continue  # foreach's "none done yet" / "all done" tests
-            for atom in _conjuncts(q.cond):
-                pin = _family_pin(atom, pending)
+            for atom in conjuncts(q.cond):
+                pin = family_pin(atom, pending)
                 if pin is None:
                     if atom.op != "true":
                         em.lines.append(em.test(atom))
@@ -415,7 +415,7 @@ def _emit(step: "_Step", mode: str) -> tuple[_Emitter, list[str]]:
                     em.index = None
                 dtype = "bool" if pending[name].target.sort.range == BOOL else "float"
                 em._assigned(name)
-                em.lines.append(f"{name} = np.array({code}, dtype={dtype})  # from {_brief(atom)}")
+                em.lines.append(f"{name} = np.array({code}, dtype={dtype})  # from {brief(atom)}")
                 if error is not None:
                     em.lines.append(f"{name}_e = {error}")
                     em.errors[name] = f"{name}_e"
@@ -429,15 +429,15 @@ def _emit(step: "_Step", mode: str) -> tuple[_Emitter, list[str]]:
         elif isinstance(q, Choice):
             em.choice(q)
         else:
-            raise _refuse(q, "not a statement of a vectorised controller")
+            raise refuse(q, "not a statement of a vectorised controller")
     unpinned = [name for name, was_read in em.pending.items() if was_read]
     if unpinned:
-        raise _refuse(pending[unpinned[0]], "the step read this family before, and no test "
+        raise refuse(pending[unpinned[0]], "the step read this family before, and no test "
                       f"`∀j ({unpinned[0]}(j) <-> ...)` pins its new value down")
     return em, list(reductions)
 
 
-def _separable(step: "_Step", outputs: list[str], reductions: list[str]) -> bool:
+def _separable(step: "Step", outputs: list[str], reductions: list[str]) -> bool:
     """Rows independent: scalar set-up, then foreach loops over every member whose min-
     reductions are the outputs (ctrl2). The exact path then redoes only uncertain rows."""
     for q in step.parts:
@@ -451,20 +451,20 @@ def _separable(step: "_Step", outputs: list[str], reductions: list[str]) -> bool
                 isinstance(x, Loop) and x.each is not None and x.each.done.payload == q.target.payload
                 for x in step.parts):
             return False
-        if isinstance(q, Test) and not any(_mentions(q.cond, x.each.done.payload) for x in step.parts
+        if isinstance(q, Test) and not any(mentions(q.cond, x.each.done.payload) for x in step.parts
                                            if isinstance(x, Loop) and x.each is not None):
             return False
     return set(outputs) <= set(reductions)
 
 
-def _vectorised(theorem: Theorem, step: "_Step") -> str:
+def vectorised_source(theorem: Theorem, step: "Step") -> str:
     em, reductions = _emit(step, "cert")
     exact_em, _ = _emit(step, "exact")
     assigned = [v for v in em.local if em.local[v] == v]
-    outputs = _outputs(theorem, step, assigned, [], set())
+    outputs = step_outputs(theorem, step, assigned, [], set())
     params = list(em.reads)
     families = list(em.families)
-    _check_names(theorem, [*params, *families, *assigned], vectorised=True)
+    check_names(theorem, [*params, *families, *assigned], vectorised=True)
     imports = f"{certified.IMPORT_EXACT}\n\nimport numpy as np\n\n{certified.IMPORT}"
     src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
                         inputs=params, families=families, what="discrete controller", how=VECTORISED,
@@ -483,7 +483,7 @@ def _vectorised(theorem: Theorem, step: "_Step") -> str:
                 '    meaningless). Families are 1-D numpy arrays over the boundaries (Bool families:\n'
                 '    arrays of bool). Every decision is the real-valued model\'s on these inputs, and\n'
                 '    real outputs are rounded down: see certiloop.kernel.extract.certified."""\n')
-    sorts = {v: _sort_of(theorem, v, REAL) for v in [*params, *families, *outputs]}
+    sorts = {v: sort_of(theorem, v, REAL) for v in [*params, *families, *outputs]}
     src += "    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):\n"
     src += f"        *values, enabled, ok = _filtered({args})  # {', '.join(outputs)}\n"
     src += "    if np.all(ok):\n"
@@ -535,7 +535,7 @@ def _vectorised(theorem: Theorem, step: "_Step") -> str:
     return src
 
 
-def _family_pin(atom: Node, pending: dict[str, Havoc]) -> tuple[str, Node, str] | None:
+def family_pin(atom: Node, pending: dict[str, Havoc]) -> tuple[str, Node, str] | None:
     """`∀j (F(j) <-> E(j))` (or `F(j) = E(j)`) for an open family F: (F, E, j), else None."""
     if atom.op != "forall" or len(atom.payload) != 1:
         return None
@@ -546,7 +546,7 @@ def _family_pin(atom: Node, pending: dict[str, Havoc]) -> tuple[str, Node, str] 
     for side, other in ((body.args[0], body.args[1]), (body.args[1], body.args[0])):
         if side.op == "select" and side.args[0].payload in pending and len(side.args) == 2 \
                 and side.args[1].op == "var" and side.args[1].payload == j \
-                and not _mentions(other, side.args[0].payload):
+                and not mentions(other, side.args[0].payload):
             return side.args[0].payload, other, j
     return None
 
@@ -585,7 +585,7 @@ def _foreach(em: _Emitter, loop: Loop) -> list[str]:
                               f"# boundaries the loop does not visit")
     reductions: list[tuple[str, str]] = []
     for s in inner:
-        red = _min_update(s)
+        red = min_update(s)
         if red is not None:
             var, value = red
             v, e = inner_em.value(value, {})
@@ -598,7 +598,7 @@ def _foreach(em: _Emitter, loop: Loop) -> list[str]:
             reductions.append((var, v))
             continue
         inner_em.statement(s)
-        for v in _scalars_written(s, inner_em.index):
+        for v in scalars_written(s, inner_em.index):
             if v in em.local:
                 raise ExtractError(f"{loop.label}: `{v}` is overwritten for every boundary (the last "
                                    "one wins); only k := min(k, ...) folds over boundaries")
@@ -614,7 +614,7 @@ def _foreach(em: _Emitter, loop: Loop) -> list[str]:
     return [var for var, _ in reductions]
 
 
-def _min_update(p: Program) -> tuple[str, Node] | None:
+def min_update(p: Program) -> tuple[str, Node] | None:
     """`?a >= k; k := k ∪ ?a < k; k := a` is k := min(k, a): (k, a), else None."""
     if not isinstance(p, Choice) or len(p.alternatives) != 2:
         return None
@@ -633,10 +633,10 @@ def _min_update(p: Program) -> tuple[str, Node] | None:
     return k.payload, a
 
 
-def _scalars_written(p: Program, index: str) -> list[str]:
+def scalars_written(p: Program, index: str) -> list[str]:
     if isinstance(p, Assign) and p.target.op == "var":
         return [p.target.payload]
     if isinstance(p, (Seq, Choice)):
         parts = p.parts if isinstance(p, Seq) else p.alternatives
-        return [v for q in parts for v in _scalars_written(q, index)]
+        return [v for q in parts for v in scalars_written(q, index)]
     return []

@@ -11,7 +11,7 @@ from lark import Token, Tree
 
 from certiloop.models.kyx.lifting import NotDifferentiable, moves, rate
 from certiloop.models.kyx.roots import NotPolynomialInRoot, exact_root, never_negative, number, without_root
-from certiloop.models.kyx.syntax import BUILTINS, KyxError, Scope, _where
+from certiloop.models.kyx.syntax import BUILTINS, KyxError, Scope, place
 from certiloop.models.lang.nesting import divides
 from certiloop.models.lang.programs import (
     ODE,
@@ -106,7 +106,7 @@ class Builder:
                 | self.made | set(self.named_roots))
 
     def fail(self, where: Any, message: str) -> KyxError:
-        return KyxError(f"{_where(self.source, where)}: {message}")
+        return KyxError(f"{place(self.source, where)}: {message}")
 
     # ---- differential symbols
     def prime(self, name: str) -> Node:

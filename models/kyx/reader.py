@@ -36,9 +36,9 @@ from certiloop.models.kyx.slicing import one_entry
 from certiloop.models.kyx.syntax import (
     KyxError,
     Scope,
-    _declarations,
-    _where,
+    declarations,
     parse_tree,
+    place,
 )
 from certiloop.models.lang.nesting import divides, loop_nesting_problem, modal_domains, tests_have_loops
 from certiloop.models.lang.programs import (
@@ -206,11 +206,11 @@ def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> l
     seen: set[str] = set()
     for item in tree.children:
         if item.data == "shared":
-            _declarations([item], shared)
+            declarations([item], shared)
             continue
         kind, name_tok, name = _header(item)
         if name in seen:
-            raise KyxError(f"{_where(source, name_tok)}: two entries named {name!r}")
+            raise KyxError(f"{place(source, name_tok)}: two entries named {name!r}")
         seen.add(name)
         if only is not None and name != only:
             entries.append(Entry(name, str(kind), None, None))
@@ -222,12 +222,12 @@ def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> l
         except ModelError as exc:
             message = str(exc)
             if not isinstance(exc, KyxError):
-                message = f"{_where(source, name_tok)}: {message}"
+                message = f"{place(source, name_tok)}: {message}"
             entries.append(Entry(name, str(kind), None, message))
         except Exception as exc:  # a certiloop bug in one entry: its row, the others are still read
             if os.environ.get("CERTILOOP_DEBUG"):
                 raise
-            entries.append(Entry(name, str(kind), None, f"{_where(source, name_tok)}: internal error while "
+            entries.append(Entry(name, str(kind), None, f"{place(source, name_tok)}: internal error while "
                                  f"reading it: {type(exc).__name__}: {exc} (please report it)"))
     return entries
 
@@ -255,41 +255,41 @@ def _header(item: Tree) -> tuple[Token, Token, str]:
 def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str) -> Theorem:
     scope = Scope(source, dict(shared.defs), list(shared.variables), set(shared.bools))
     blocks = [c for c in item.children if isinstance(c, Tree) and c.data in ("definitions", "variables")]
-    _declarations(blocks, scope)
+    declarations(blocks, scope)
     problem = next(c for c in item.children if isinstance(c, Tree) and c.data == "problem")
     spelled = {str(tok) for tok in item.scan_values(lambda v: isinstance(v, Token) and v.type == "IDENT")}
     builder = Builder(scope, {}, taken=spelled | set(shared.defs))
     formula_tree = problem.children[0]
     f = builder.expr(formula_tree, {})
     if f.sort != BOOL:
-        raise KyxError(f"{_where(source, problem)}: the Problem is a term, not a formula")
+        raise KyxError(f"{place(source, problem)}: the Problem is a term, not a formula")
     if builder.primes:
         f = _primes_in_formula(f, builder.primes)
     meta = _metadata(span, source, problem)
     if meta.get("names"):
-        _check_renaming(meta["names"], spelled | set(shared.defs), _where(source, problem))
+        _check_renaming(meta["names"], spelled | set(shared.defs), place(source, problem))
         f = _rename(f, meta["names"])
     risky = frozenset(builder.named_roots)  # defined only where their argument is >= 0
     assumptions, program, guarantee = split_problem(f, exact=meta.get("shape") == "A->[a]P", risky=risky)
     roots = {n: (_rename(e, meta.get("names", {})), where) for n, (e, where) in builder.named_roots.items()}
     assumptions, root_conditions, guarded_roots = _pin_roots(roots, assumptions, program, guarantee, source)
     if _nested_loop(assumptions):
-        raise KyxError(f"{_where(source, problem)}: a loop inside an assumption's modality is not supported")
+        raise KyxError(f"{place(source, problem)}: a loop inside an assumption's modality is not supported")
     if tests_have_loops(program):
-        raise KyxError(f"{_where(source, problem)}: the Problem holds a loop inside a formula of a program "
+        raise KyxError(f"{place(source, problem)}: the Problem holds a loop inside a formula of a program "
                        "(a test, an ODE domain, an annotation), which is not supported")
     if modal_domains(program) or _modal_domain_inside(guarantee) or _modal_domain_inside(assumptions):
-        raise KyxError(f"{_where(source, problem)}: the Problem holds a modality inside an ODE's domain or "
+        raise KyxError(f"{place(source, problem)}: the Problem holds a modality inside an ODE's domain or "
                        "annotation, which is not supported")
     if why := loop_nesting_problem(guarantee, risky):
-        raise KyxError(f"{_where(source, problem)}: the Problem holds {why}, which is not supported")
+        raise KyxError(f"{place(source, problem)}: the Problem holds {why}, which is not supported")
     names = meta.get("names", {})
     constants = [Real(names.get(n, n)) for n, d in scope.defs.items()
                  if d.kind == "constant" and n not in scope.bools]
     writes = written(program)
     for c in constants:
         if c.payload in writes:
-            raise KyxError(f"{_where(source, problem)}: the program writes `{c.payload}`, declared "
+            raise KyxError(f"{place(source, problem)}: the program writes `{c.payload}`, declared "
                            "constant in Definitions")
     theorem = Theorem(
         name=name,
@@ -328,7 +328,7 @@ def _pin_roots(roots: dict[str, tuple[Node, object]], assumptions: Node, program
     changing = _changing(assumptions) | _changing(guarantee) | set(written(program)) | _bound_in(program)
     for e, where in roots.values():
         if bad := sorted(set(free_vars(e)) & changing):
-            raise KyxError(f"{_where(source, where)}: the square root of `{e}`, which may be negative and "
+            raise KyxError(f"{place(source, where)}: the square root of `{e}`, which may be negative and "
                            f"changes with `{bad[0]}` (written by the program or bound by a quantifier), "
                            "is not supported")
     parts = list(assumptions.args) if assumptions.op == "and" else [assumptions]
@@ -342,7 +342,7 @@ def _pin_roots(roots: dict[str, tuple[Node, object]], assumptions: Node, program
             e, where = waiting.pop(n)
             taken = part is not None and _always_taken(part, n)
             if not taken and divides(e):  # the pin would divide where the claim may not
-                raise KyxError(f"{_where(source, where)}: the square root of `{e}`, which divides and is "
+                raise KyxError(f"{place(source, where)}: the square root of `{e}`, which divides and is "
                                "taken under a condition, is not supported")
             what = f"the square root of `{e}` (named {n}) is of a number >= 0"
             (exact if taken else stricter).append((what, Implies(And(*out), e >= 0)))
@@ -424,7 +424,7 @@ def _metadata(span: str, source: str, where) -> dict:
     try:
         data = json.loads(m.group(1))
     except json.JSONDecodeError as exc:
-        raise KyxError(f"{_where(source, where)}: unreadable /*@certiloop ...*/ comment: {exc}") from None
+        raise KyxError(f"{place(source, where)}: unreadable /*@certiloop ...*/ comment: {exc}") from None
     return data if isinstance(data, dict) else {}
 
 

@@ -31,7 +31,7 @@ def _parser() -> Lark:
     return _PARSER
 
 
-def _where(source: str, node: Any) -> str:
+def place(source: str, node: Any) -> str:
     meta = getattr(node, "meta", None)
     line = getattr(node, "line", None) or getattr(meta, "line", None)
     column = getattr(node, "column", None) or getattr(meta, "column", None)
@@ -112,11 +112,11 @@ class Scope:
 
     def declare(self, name: str, d: Definition) -> None:
         if name in self.defs or name in self.variables:
-            raise KyxError(f"{_where(self.source, d.where)}: `{name}` is declared twice")
+            raise KyxError(f"{place(self.source, d.where)}: `{name}` is declared twice")
         self.defs[name] = d
 
 
-def _declarations(items: list[Tree], scope: Scope) -> None:
+def declarations(items: list[Tree], scope: Scope) -> None:
     for block in items:
         if block.data == "variables":
             for decl in block.children:
@@ -125,10 +125,10 @@ def _declarations(items: list[Tree], scope: Scope) -> None:
                 sort, *names = decl.children
                 for n in names:
                     if _sort(sort) != "Real":
-                        raise KyxError(f"{_where(scope.source, n)}: program variable `{n}` of sort "
+                        raise KyxError(f"{place(scope.source, n)}: program variable `{n}` of sort "
                                        f"{sort}: only Real program variables are supported")
                     if n in scope.defs or n in scope.variables:
-                        raise KyxError(f"{_where(scope.source, n)}: `{n}` is declared twice")
+                        raise KyxError(f"{place(scope.source, n)}: `{n}` is declared twice")
                     scope.variables.append(str(n))
         elif block.data in ("definitions", "shared"):
             for decl in block.children:
@@ -143,7 +143,7 @@ def _params(tree: Tree | None, scope: Scope) -> tuple[str, ...]:
     for p in tree.children:
         sort, *name = p.children
         if _sort(sort) != "Real" or not name:
-            raise KyxError(f"{_where(scope.source, sort)}: function parameters must be named Real "
+            raise KyxError(f"{place(scope.source, sort)}: function parameters must be named Real "
                            "parameters, as in `Real f(Real x) = x^2;`")
         out.append(str(name[0]))
     return tuple(out)
@@ -154,7 +154,7 @@ def _declaration(decl: Tree, scope: Scope) -> None:
     if kind == "import_":
         path = ".".join(str(c) for c in decl.children)
         if not all(str(c) in ("kyx", "math", *BUILTINS) for c in decl.children):
-            raise KyxError(f"{_where(scope.source, decl)}: import {path} is not supported (only "
+            raise KyxError(f"{place(scope.source, decl)}: import {path} is not supported (only "
                            "kyx.math.abs, min and max)")
         return
     if kind == "decl_names":
@@ -169,7 +169,7 @@ def _declaration(decl: Tree, scope: Scope) -> None:
         if str(name) in BUILTINS and rest:  # KeYmaera X 4 declared `R abs(R).`: ours is built in
             return
         if rest and rest[0].children:
-            raise KyxError(f"{_where(scope.source, name)}: uninterpreted function `{name}` with "
+            raise KyxError(f"{place(scope.source, name)}: uninterpreted function `{name}` with "
                            "arguments is not supported: give it a definition (`= ...`)")
         scope.declare(str(name), Definition("constant", where=name))
         if _sort(sort) == "Bool":
@@ -181,15 +181,15 @@ def _declaration(decl: Tree, scope: Scope) -> None:
         params = _params(rest[0] if len(rest) == 2 else None, scope)
         want = "Real" if kind == "def_term" else "Bool"
         if _sort(sort) != want:
-            raise KyxError(f"{_where(scope.source, name)}: `{name}` is declared {sort} but defined "
+            raise KyxError(f"{place(scope.source, name)}: `{name}` is declared {sort} but defined "
                            f"with {'=' if want == 'Real' else '<->'}")
         scope.declare(str(name), Definition("term" if want == "Real" else "formula", params, body, name))
         return
     if kind == "decl_program":
-        raise KyxError(f"{_where(scope.source, decl.children[0])}: program constant "
+        raise KyxError(f"{place(scope.source, decl.children[0])}: program constant "
                        f"`{decl.children[0]}` without a definition is not supported")
     if kind == "def_program":
         name, body = decl.children
         scope.declare(str(name), Definition("program", (), body, name))
         return
-    raise KyxError(f"{_where(scope.source, decl)}: unsupported declaration")  # pragma: no cover
+    raise KyxError(f"{place(scope.source, decl)}: unsupported declaration")  # pragma: no cover

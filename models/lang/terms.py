@@ -79,9 +79,6 @@ def ArraySort(domain: Sort | tuple[Sort, ...], range: Sort) -> Sort:
     return Sort("Array", domain, range)
 
 
-COMPARISONS = ("<", "<=", "==", "!=", ">=", ">")
-ARITH = ("+", "*", "neg", "/", "^")
-CONNECTIVES = ("and", "or", "not", "implies", "iff")
 QUANTIFIERS = ("forall", "exists")
 MODALITIES = ("box", "diamond")
 

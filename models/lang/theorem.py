@@ -179,7 +179,7 @@ IDENTIFIER = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
 RESERVED_SORTS = ("Real", "Int", "Bool", "Array")
 
 
-def _visit(t: "Theorem", on_node: Callable[[Node, str], None],
+def visit(t: "Theorem", on_node: Callable[[Node, str], None],
            on_program: Callable[[Program, str], None] | None = None) -> None:
     """Call on_node for every formula and term node the theorem holds (programs inside
     modalities included), with where it is; on_program for every program node."""
@@ -237,7 +237,7 @@ def symbol_occurrences(t: "Theorem") -> list[tuple[str, Sort, str]]:
         if n.op in QUANTIFIERS:
             out.extend((v.payload, v.sort, f"{where} (bound)") for v in n.payload)
 
-    _visit(t, on_node)
+    visit(t, on_node)
     return out
 
 
@@ -261,7 +261,7 @@ def _check_term_sorts(t: "Theorem", where: str) -> None:
                 raise ModelError(f"{where}: cannot assign `{p.value}` ({got}) to `{p.target}` ({want}) "
                                  f"in {place}")
 
-    _visit(t, on_node, on_program)
+    visit(t, on_node, on_program)
 
 
 def _check_names_and_sorts(t: "Theorem", where: str) -> None:

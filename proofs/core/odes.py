@@ -153,7 +153,7 @@ def runs_along(ode: ODE, solution: dict[str, Node], tau: Node, s: Node) -> Node:
     right-hand side as written is defined all along (x' = x/x has the solution x0 + s, but no
     run through x = 0, where x' is undefined)?"""
     dividing = {d.key: d for _, f in ode.eqs for d in denominators(f)}
-    rates = [_keeps_sign(d, solution, tau, s) for d in dividing.values()]
+    rates = [keeps_sign_along(d, solution, tau, s) for d in dividing.values()]
     return And(holds_along(ode.domain, solution, tau, s), *rates)
 
 
@@ -182,7 +182,7 @@ def _holds_along(domain: Node, solution: dict[str, Node], tau: Node, s: Node) ->
         # left-to-right reading asks no less); an atom that is not a comparison keeps its
         # quantifier, and with it its divisions
         if atom.op == "cmp":
-            parts += [_keeps_sign(d, solution, tau, s) for d in denominators(atom)]
+            parts += [keeps_sign_along(d, solution, tau, s) for d in denominators(atom)]
         exact = _atom_along(atom, solution, tau, s)
         if exact is None:
             body = Implies(And(const(0) <= s, s <= tau), substitute(atom, solution))
@@ -192,7 +192,7 @@ def _holds_along(domain: Node, solution: dict[str, Node], tau: Node, s: Node) ->
     return And(*parts)
 
 
-def _keeps_sign(d: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
+def keeps_sign_along(d: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
     """d(x(s)) != 0 for all s in [0,τ]: as d is continuous along the flow, d > 0 all along or
     d < 0 all along."""
     return Or(*(_along_atom_or_quantified(cmp(op, d, 0), solution, tau, s) for op in (">", "<")))

@@ -45,7 +45,7 @@ class ObligationResult:
         return {f.name: copy.deepcopy(getattr(self, f.name)) for f in fields(self) if f.name not in skip}
 
 
-def _exactness(model: dict[str, Any]) -> str:
+def exactness(model: dict[str, Any]) -> str:
     def approx(v: Any) -> bool:
         if isinstance(v, Interval):
             return True
@@ -76,7 +76,7 @@ def judge(ob_id: str, path: str, formula, answer: SolverAnswer, seconds: float) 
     cex = readable(model)
     if holds is False:
         return ObligationResult(ob_id, path, "refuted", seconds, counterexample=cex,
-                                check=_exactness(model), raw_model=model)
+                                check=exactness(model), raw_model=model)
     if holds is True:
         return ObligationResult(
             ob_id, path, "unknown", seconds, counterexample=cex,

@@ -29,7 +29,7 @@ from certiloop.models.lang.terms import (
 from certiloop.proofs.core.bounded import ITERATIONS, bounded
 from certiloop.proofs.core.odes import solvable
 from certiloop.proofs.core.wd import defined, defined_term, has_division
-from certiloop.proofs.core.wp import _root_name, _update, box, expand_modalities, flow_solution, has_modality
+from certiloop.proofs.core.wp import box, expand_modalities, flow_solution, has_modality, root_name, update
 
 
 def defined_modal(f: Node, names) -> Node:
@@ -78,13 +78,13 @@ def along(p: Program, after: Node, names) -> Node:
     """Every run of p evaluates only defined terms, and `after` holds where it ends."""
     if isinstance(p, Assign):
         return And(*(defined_term(t) for t in (p.value, *_indices(p.target))),
-                   substitute(after, _update(p.target, p.value)))
+                   substitute(after, update(p.target, p.value)))
     if isinstance(p, Havoc):
         if after.op == "true" and not _indices(p.target):
             return TRUE
-        fresh = names.fresh(_root_name(p.target), p.target.sort, "chosen")
+        fresh = names.fresh(root_name(p.target), p.target.sort, "chosen")
         return And(*(defined_term(t) for t in _indices(p.target)),
-                   ForAll(fresh, substitute(after, _update(p.target, fresh))))
+                   ForAll(fresh, substitute(after, update(p.target, fresh))))
     if isinstance(p, Test):
         return And(defined_modal(p.cond, names), Implies(_condition(p.cond, names), after))
     if isinstance(p, Seq):

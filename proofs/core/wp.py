@@ -61,7 +61,7 @@ def expand_modalities(f: Node, names, positive: bool = False) -> Node:
     return rebuild(f, tuple(expand_modalities(a, names) for a in f.args))
 
 
-def _update(target: Node, value: Node) -> dict[str, Node]:
+def update(target: Node, value: Node) -> dict[str, Node]:
     if target.op == "var":
         return {target.payload: value}
     idx: list[Node] = []
@@ -72,7 +72,7 @@ def _update(target: Node, value: Node) -> dict[str, Node]:
     return {root.payload: store(root, tuple(idx), value)}
 
 
-def _root_name(target: Node) -> Node:
+def root_name(target: Node) -> Node:
     while target.op == "select":
         target = target.args[0]
     return target
@@ -86,12 +86,12 @@ def box(p: Program, post: Node, names, quantify: bool = True, unsolvable: str = 
     maps each statement occurrence (by id) to its symbol so a run can be replayed."""
     again = lambda q, post: box(q, post, names, quantify, unsolvable, record)  # noqa: E731
     if isinstance(p, Assign):
-        return substitute(post, _update(p.target, p.value))
+        return substitute(post, update(p.target, p.value))
     if isinstance(p, Havoc):
-        fresh = names.fresh(_root_name(p.target), p.target.sort, "chosen")
+        fresh = names.fresh(root_name(p.target), p.target.sort, "chosen")
         if record is not None:
             record[id(p)] = fresh.payload
-        body = substitute(post, _update(p.target, fresh))
+        body = substitute(post, update(p.target, fresh))
         return ForAll(fresh, body) if quantify else body
     if isinstance(p, Test):  # a modal test (?[a]P) by its first-order equivalent
         return Implies(expand_modalities(p.cond, names), post)
@@ -122,14 +122,14 @@ def diamond(p: Program, post: Node, names, unsolvable: str = "error", family_wit
     family_witnesses the runs kept are those choosing one of the same-sorted families the
     rest mentions (F := G): an under-approximation, sound for proving <p>post."""
     if isinstance(p, Assign):
-        return substitute(post, _update(p.target, p.value))
+        return substitute(post, update(p.target, p.value))
     if isinstance(p, Havoc) and p.target.op == "var" and p.target.sort.is_array and family_witnesses:
         name = p.target.payload
         same = [v for n, v in free_vars(post).items() if v.sort == p.target.sort and n != name]
         return Or(*(substitute(post, {name: g}) for g in same)) if same else FALSE
     if isinstance(p, Havoc):
-        fresh = names.fresh(_root_name(p.target), p.target.sort, "chosen")
-        return Exists(fresh, substitute(post, _update(p.target, fresh)))
+        fresh = names.fresh(root_name(p.target), p.target.sort, "chosen")
+        return Exists(fresh, substitute(post, update(p.target, fresh)))
     if isinstance(p, Test):
         return And(expand_modalities(p.cond, names), post)
     if isinstance(p, Seq):

@@ -134,7 +134,7 @@ class Prover:
         self._pool: Executor | None = None
         self._memo: dict[tuple, ObligationResult] = {}  # this theorem's discharged obligations
         if executor is not None:
-            self._pool = _dask_executor(executor)
+            self._pool = dask_executor(executor)
 
     def __enter__(self) -> "Prover":
         return self
@@ -444,7 +444,7 @@ def _discharge_run(obligations: list[Obligation], budget: Budget, quick: bool) -
     return [discharge_one(ob, budget, quick) for ob in obligations]
 
 
-def _dask_executor(address: str) -> Executor:
+def dask_executor(address: str) -> Executor:
     """A concurrent.futures executor on an existing Dask cluster: obligations are
     independent units of work, as in the paper's distributed KeYmaeraD."""
     try:

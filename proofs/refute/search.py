@@ -35,7 +35,7 @@ from certiloop.proofs.core.interval import show_value
 from certiloop.proofs.core.odes import runs_along
 from certiloop.proofs.core.solver import ArrayValue, check_valid
 from certiloop.proofs.core.vcgen import Names, executed
-from certiloop.proofs.core.verdicts import _exactness, judge, readable
+from certiloop.proofs.core.verdicts import exactness, judge, readable
 from certiloop.proofs.core.wp import expand_modalities, flow_solution, unroll
 from certiloop.proofs.engine.budget import Budget
 from certiloop.proofs.refute.bmc import Encoder
@@ -139,7 +139,7 @@ def refute(theorem: Theorem, budget: Budget) -> tuple[Refutation | None, str]:
                     continue
                 return None, f"run at depth {depth} did not re-check: {verdict.reason}"
             model = answer.model or {}
-        check = "exact rationals" if _exactness(model) == "exact rationals" else _exactness(model)
+        check = "exact rationals" if exactness(model) == "exact rationals" else exactness(model)
         initial = {k: v for k, v in model.items() if "@" not in k}
         replay = Replay(model, record, pre, post)
         try:

@@ -42,7 +42,7 @@ DH_ALPHA = np.array([1, -1, -1, 1, 1, -1, 0]) * (np.pi / 2)
 Q_ANCHOR = np.radians([20.0, 50.0, 0.0, -70.0, 0.0, 60.0, 0.0])
 
 
-def _frames(q: np.ndarray) -> list[np.ndarray]:
+def link_frames(q: np.ndarray) -> list[np.ndarray]:
     """T_0 (identity), T_0^1, ..., T_0^7."""
     out = [np.eye(4)]
     T = np.eye(4)
@@ -57,14 +57,14 @@ def _frames(q: np.ndarray) -> list[np.ndarray]:
 def lwr4_forward(q) -> np.ndarray:
     """The flange pose (4x4 homogeneous transform) for joint angles q (7, rad)."""
     q = np.asarray(q, dtype=float).reshape(7)
-    return _frames(q)[-1]
+    return link_frames(q)[-1]
 
 
 def lwr4_jacobian(q, tool_length: float = 0.0) -> np.ndarray:
     """Geometric Jacobian (6x7: linear velocity, then angular) of the point tool_length along
     the flange's z axis (the tool tip p_t; 0 gives the flange)."""
     q = np.asarray(q, dtype=float).reshape(7)
-    frames = _frames(q)
+    frames = link_frames(q)
     end = frames[-1]
     p = end[:3, 3] + tool_length * end[:3, 2]
     J = np.zeros((6, 7))

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from certiloop.studies.rcm.arm import DH_D, _frames, guard_speed
+from certiloop.studies.rcm.arm import DH_D, guard_speed, link_frames
 from certiloop.studies.rcm.cloud import CloudBarrier
 
 # ATI Mini40 ranges (force N, torque N m): a larger reading is clipped, a non-finite one refused.
@@ -110,7 +110,7 @@ class Mapping:
 
 def mapping(q: np.ndarray, p_c: np.ndarray, tool_length: float) -> Mapping:
     """(15)-(21) at q. W = w I as in Table 1: a scalar W cancels in both pseudo-inverses."""
-    frames = np.stack(_frames(q))                     # one DH pass (rcm_arm.py's table) for pose and J
+    frames = np.stack(link_frames(q))                     # one DH pass (rcm_arm.py's table) for pose and J
     T = frames[-1]
     n, a, o = T[:3, 2], T[:3, 0], T[:3, 1]
     p_e = T[:3, 3]

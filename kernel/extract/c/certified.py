@@ -36,7 +36,7 @@ from __future__ import annotations
 from fractions import Fraction
 
 from certiloop.kernel.extract import certified
-from certiloop.kernel.extract.errors import _refuse
+from certiloop.kernel.extract.errors import refuse
 from certiloop.models.lang.terms import Node
 
 RUNTIME = r"""
@@ -344,7 +344,7 @@ def cl_constant(n: Node) -> str:
     """A model constant as a certified value: exact where the double is the rational."""
     value, error = certified.constant(Fraction(n.payload))
     if value in ("inf", "-inf", "nan"):
-        raise _refuse(n, "a constant outside the double range")
+        raise refuse(n, "a constant outside the double range")
     return f"cl_const({value})" if error is None else f"cl_approx({value}, {error}, careful)"
 
 
@@ -373,7 +373,7 @@ def cl_op(n: Node, a: list[str]) -> str:
 
         k = n.payload
         if not (isinstance(k, int) and 1 <= k <= MAX_POWER):
-            raise _refuse(n, f"only natural powers up to {MAX_POWER} are written in C")
+            raise refuse(n, f"only natural powers up to {MAX_POWER} are written in C")
         code = a[0]
         for _ in range(k - 1):
             code = f"cl_mul({code}, {a[0]}, careful)"
@@ -393,7 +393,7 @@ def cl_op(n: Node, a: list[str]) -> str:
         return f"cl_or(cl_not({a[0]}), {a[1]})"
     if op == "iff":
         return f"cl_iff({a[0]}, {a[1]})"
-    raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
+    raise refuse(n, "not an arithmetic term or a quantifier-free formula")
 
 
 def cl_all(conds: list[str]) -> str:

@@ -20,7 +20,7 @@ alone, C runs the same filter and its outputs are the Python's bit for bit. Comp
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.analysis import _split, _uses_families
+from certiloop.kernel.extract.analysis import split, uses_families
 from certiloop.kernel.extract.c.certified import RUNTIME
 from certiloop.kernel.extract.c.syntax import (
     CFLAGS,
@@ -54,12 +54,12 @@ def extract_c(theorem: Theorem) -> dict[str, str]:
 
 
 def _extract_c(theorem: Theorem) -> dict[str, str]:
-    step = _split(theorem)
+    step = split(theorem)
     base = c_name(theorem.name)
     sizes: list[str] = []
     families: dict = {}
     tail: list[str] = []
-    if _uses_families(step.parts):
+    if uses_families(step.parts):
         if step.where in ("modes", "algorithm"):
             raise ExtractError("a family of boundaries in a switched plant or an algorithm is not vectorised")
         from certiloop.kernel.extract.c.family import c_family, pinned_output
@@ -246,7 +246,3 @@ def compile_error(files: dict[str, str]) -> str | None:
                 lines = [line for line in done.stderr.splitlines() if "error" in line or "warning" in line]
                 return (lines or done.stderr.splitlines() or ["exit status " + str(done.returncode)])[0]
     return None
-
-
-def c_flags() -> list[str]:
-    return list(CFLAGS)

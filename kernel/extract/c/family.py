@@ -16,19 +16,19 @@ from __future__ import annotations
 from fractions import Fraction
 
 from certiloop.kernel.extract.analysis import (
-    _conjuncts,
-    _is_index_sort,
-    _mentions,
-    _outputs,
-    _reads,
-    _sort_of,
-    _Step,
+    Step,
+    conjuncts,
+    is_index_sort,
+    mentions,
+    reads_of,
+    sort_of,
+    step_outputs,
 )
 from certiloop.kernel.extract.c.certified import cl_constant, cl_guard, cl_op
 from certiloop.kernel.extract.c.syntax import c_comment
-from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
-from certiloop.kernel.extract.roots import _solve
-from certiloop.kernel.extract.vectorised import _family_pin, _min_update, _scalars_written, _target_name
+from certiloop.kernel.extract.errors import ExtractError, brief, refuse
+from certiloop.kernel.extract.roots import solve
+from certiloop.kernel.extract.vectorised import family_pin, min_update, scalars_written, target_name
 from certiloop.models.lang.programs import Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import BOOL, REAL, Node, const, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -86,19 +86,19 @@ class _CFamily:
             return "1" if op == "true" else "0"
         if op == "var":
             name = n.payload
-            if _is_index_sort(n.sort):
-                raise _refuse(n, "a family's index is only usable to read the family (f(i))")
+            if is_index_sort(n.sort):
+                raise refuse(n, "a family's index is only usable to read the family (f(i))")
             if name in subst:
                 return subst[name]
             if self.held(n) is not None:
                 return cl_constant(const(self.known[name]))
             if name in self.reduced:
-                raise _refuse(n, "a min over the boundaries read after the loop (C returns it, rounded "
+                raise refuse(n, "a min over the boundaries read after the loop (C returns it, rounded "
                               "down, but does not decide on it)")
             if self.is_local(name):
                 return f"cl_{name}"
             if n.sort.is_array:
-                raise _refuse(n, "a whole family outside f(i)")
+                raise refuse(n, "a whole family outside f(i)")
             self.params.setdefault(name, n.sort)
             return f"({name} != 0)" if n.sort == BOOL else f"cl_{name}"
         if op == "select":
@@ -117,7 +117,7 @@ class _CFamily:
                 return self.code(_rename(value, bound, self.index), subst)
             if self.pending.get(name):
                 raise ExtractError(f"`{name} := *` gives {name} a new value after the step read it, and "
-                                   f"`{_brief(n)}` reads it before a test `∀j ({name}(j) <-> ...)` pins it")
+                                   f"`{brief(n)}` reads it before a test `∀j ({name}(j) <-> ...)` pins it")
             self.families.setdefault(name, root.sort)
             self.size_of(root.sort)
             if not self.in_foreach:
@@ -125,7 +125,7 @@ class _CFamily:
             cell = f"{name}[{self.index}]"
             return f"({cell} != 0)" if root.sort.range == BOOL else f"cl_exact({cell})"
         if op in ("forall", "exists"):
-            raise _refuse(n, "a quantifier inside a term; only a test `?∀j P(j)` is written in C")
+            raise refuse(n, "a quantifier inside a term; only a test `?∀j P(j)` is written in C")
         args = [self.code(x, subst) for x in n.args]
         held = [self.held(x) if self.held(x) not in subst else None for x in n.args]
         if op == "*" and any(held):
@@ -148,8 +148,8 @@ class _CFamily:
         self.blocks = True
         if atom.op in ("forall", "exists"):
             bound = atom.payload
-            if len(bound) != 1 or not _is_index_sort(bound[0].sort) or self.index is not None:
-                raise _refuse(atom, "only a quantifier over one family index, outside a foreach, is written "
+            if len(bound) != 1 or not is_index_sort(bound[0].sort) or self.index is not None:
+                raise refuse(atom, "only a quantifier over one family index, outside a foreach, is written "
                               "in C")
             j = bound[0].payload
             size = self.size_of(bound[0].sort)
@@ -159,10 +159,10 @@ class _CFamily:
             finally:
                 self.index = None
             if atom.op == "forall":
-                self.line(f"for (size_t {j} = 0; {j} < {size}; {j}++) {c_comment(_brief(atom, 70))}")
+                self.line(f"for (size_t {j} = 0; {j} < {size}; {j}++) {c_comment(brief(atom, 70))}")
                 self.line(f"    CL_TEST({body});")
             else:
-                self.line(f"{{ {c_comment(_brief(atom, 70))}")
+                self.line(f"{{ {c_comment(brief(atom, 70))}")
                 self.line("    int cl_found = 0;")
                 self.line(f"    for (size_t {j} = 0; {j} < {size}; {j}++)")
                 self.line(f"        cl_found = cl_or(cl_found, {body});")
@@ -180,7 +180,7 @@ class _CFamily:
         changed = list(dict.fromkeys(v for _, effects, _ in alts for v in effects))
         for v in changed:  # declared before the chain, so every branch assigns the same local
             if not self.is_local(v):
-                sort = _sort_of(self.theorem, v, REAL)
+                sort = sort_of(self.theorem, v, REAL)
                 sort = sort.range if sort.is_array else sort
                 init = "0" if sort == BOOL else "cl_approx(NAN, NAN, careful)"
                 self.line(f"{local_type(sort)} cl_{v} = {init};")
@@ -206,7 +206,7 @@ class _CFamily:
         if changed is None:
             changed = list(dict.fromkeys(v for q in p.alternatives for v in self.alternative(q)[1]))
         for v in changed:
-            sort = _sort_of(self.theorem, v, REAL)
+            sort = sort_of(self.theorem, v, REAL)
             if (sort.range if sort.is_array else sort) == REAL:
                 self.line(f"cl_{v} = cl_widen(cl_{v}, careful);")
 
@@ -220,10 +220,10 @@ class _CFamily:
         subst: dict[str, str] = {}
         for q in p.parts if isinstance(p, Seq) else (p,):
             if isinstance(q, Test):
-                for atom in _conjuncts(q.cond):
-                    solved = next((v for v in opened if v not in subst and _mentions(atom, v)), None)
+                for atom in conjuncts(q.cond):
+                    solved = next((v for v in opened if v not in subst and mentions(atom, v)), None)
                     if solved is not None:
-                        value, divisor = _solve(atom, solved)
+                        value, divisor = solve(atom, solved)
                         if divisor.op != "const":
                             mask.append(f"cl_ne({self.code(divisor, subst)}, cl_exact(0.0))")
                         subst[solved] = effects[solved] = self.code(value, subst)
@@ -232,19 +232,19 @@ class _CFamily:
                     if atom.op != "true":
                         mask.append(self.code(atom, subst))
             elif isinstance(q, Havoc):
-                name = _target_name(q.target, self.index)
+                name = target_name(q.target, self.index)
                 opened.append(name)
                 subst.pop(name, None)
                 consts.pop(name, None)
             elif isinstance(q, Assign):
-                name = _target_name(q.target, self.index)
+                name = target_name(q.target, self.index)
                 subst[name] = effects[name] = self.code(q.value, subst)
                 consts[name] = self.constant_of(q.value, consts)
             elif isinstance(q, Choice):
-                raise _refuse(q, "a choice nested in an alternative is not vectorised (flatten it into "
+                raise refuse(q, "a choice nested in an alternative is not vectorised (flatten it into "
                               "the outer choice)")
             else:
-                raise _refuse(q, "only tests, assignments and `x := *` are vectorised inside a choice")
+                raise refuse(q, "only tests, assignments and `x := *` are vectorised inside a choice")
         for v in opened:
             if v not in subst and v not in self.opened:
                 raise ExtractError(f"`{v} := *` is never pinned down by a test; cannot extract")
@@ -279,19 +279,19 @@ class _CFamily:
             for q in p.parts:
                 self.statement(q)
         elif isinstance(p, Assign):
-            name = _target_name(p.target, self.index)
+            name = target_name(p.target, self.index)
             sort = p.target.sort
             self.assign(name, self.code(p.value), sort)
             self.opened.discard(name)
-        elif isinstance(p, Havoc) and self.index is not None and _target_name(p.target, self.index):
-            self.opened.add(_target_name(p.target, self.index))
+        elif isinstance(p, Havoc) and self.index is not None and target_name(p.target, self.index):
+            self.opened.add(target_name(p.target, self.index))
         elif isinstance(p, Choice):
             self.choice(p)
         elif isinstance(p, Test):
-            for atom in _conjuncts(p.cond):
+            for atom in conjuncts(p.cond):
                 self.test(atom)
         else:
-            raise _refuse(p, "only assignments, tests, choices and min-updates are vectorised")
+            raise refuse(p, "only assignments, tests, choices and min-updates are vectorised")
 
     def foreach(self, loop: Loop, outer: set[str]) -> list[str]:
         """The loop over boundaries, its min-updates as running minima. Returns the reduced
@@ -331,22 +331,22 @@ class _CFamily:
         """The statements of a foreach's body (or the part of it after a choice whose code is
         duplicated: see `split`)."""
         for n, s in enumerate(inner):
-            red = _min_update(s)
+            red = min_update(s)
             if red is not None:
                 var, value = red
                 if var not in outer:
-                    raise _refuse(s, f"`{var}` is folded over the boundaries but has no value before the "
+                    raise refuse(s, f"`{var}` is folded over the boundaries but has no value before the "
                                   "loop")
                 v = self.code(value)
                 self.line(f"{{ cl_real cl_v = {v}; "
-                          + c_comment(f"{var} := min({var}, {_brief(value, 40)}), rounded down"))
+                          + c_comment(f"{var} := min({var}, {brief(value, 40)}), rounded down"))
                 self.line("    if (!cl_tight(cl_v)) CL_UNSURE;")
                 self.line(f"    if (cl_lower_below(cl_v, cl_{var}.v)) "
                           f"cl_{var} = cl_exact(cl_lower(cl_v)); }}")
                 if var not in reduced:
                     reduced.append(var)
                 continue
-            for v in _scalars_written(s, self.index):
+            for v in scalars_written(s, self.index):
                 if v in outer or v in self.params:
                     raise ExtractError(f"{label}: `{v}` is overwritten for every boundary (the last "
                                        "one wins); only k := min(k, ...) folds over boundaries")
@@ -365,9 +365,9 @@ class _CFamily:
         Written only where the copies stay few (MAX_COPIES) and something after reads them."""
         if self.copies * 2 > MAX_COPIES or not tail:
             return False
-        live = set().union(*(_reads(q) for q in tail))
+        live = set().union(*(reads_of(q) for q in tail))
         written_later = {v for q in tail for v in _written_names(q)} | {
-            v for q in tail for v in _scalars_written(q, self.index)}
+            v for q in tail for v in scalars_written(q, self.index)}
         sets = [self.alternative(q)[2] for q in p.alternatives]
         changed = [v for v in dict.fromkeys(v for c in sets for v in c) if v in live]
         if not changed:
@@ -421,7 +421,7 @@ def _rename(value: Node, bound: str, index: str) -> Node:
     return substitute(value, {bound: Var(index, free_vars(value)[bound].sort)})
 
 
-def c_family(theorem: Theorem, step: _Step) -> tuple[list[str], dict, dict, list[tuple[str, object]], str]:
+def c_family(theorem: Theorem, step: Step) -> tuple[list[str], dict, dict, list[tuple[str, object]], str]:
     """The C body of a step over families: (lines, scalar params, family params, outputs with
     their sorts, the index-sort length parameters)."""
     em = _CFamily(theorem)
@@ -434,19 +434,19 @@ def c_family(theorem: Theorem, step: _Step) -> tuple[list[str], dict, dict, list
             if name in done:
                 continue  # foreach's bookkeeping
             if name in em.pins:
-                raise _refuse(q, "the step pinned this family before; a second value needs an array")
+                raise refuse(q, "the step pinned this family before; a second value needs an array")
             havocs[name] = q
             # read before: the parameter holds the old value, so only a test can give the new one
             em.pending[name] = name in em.families
         elif isinstance(q, Havoc) and q.target.op == "var":
             continue  # an input: a parameter where the step reads it
         elif isinstance(q, Havoc):
-            raise _refuse(q, "a single cell's `:= *` outside a foreach is not vectorised")
+            raise refuse(q, "a single cell's `:= *` outside a foreach is not vectorised")
         elif isinstance(q, Test):
-            if any(_mentions(q.cond, f) for f in done):
+            if any(mentions(q.cond, f) for f in done):
                 continue  # foreach's "none done yet" / "all done" tests
-            for atom in _conjuncts(q.cond):
-                pin = _family_pin(atom, em.pending)
+            for atom in conjuncts(q.cond):
+                pin = family_pin(atom, em.pending)
                 if pin is None:
                     em.test(atom)
                     continue
@@ -454,14 +454,14 @@ def c_family(theorem: Theorem, step: _Step) -> tuple[list[str], dict, dict, list
                 changed = {v for later in step.parts[step.parts.index(q) + 1:]
                            for v in _written_names(later)}
                 if changed & set(free_vars(value)):
-                    raise _refuse(atom, "the pinned family reads values the step changes later; C reads "
+                    raise refuse(atom, "the pinned family reads values the step changes later; C reads "
                                   "it where the loop does, without an array")
                 em.pins[name] = (value, var)
                 del em.pending[name]
                 em.assigned[name] = None
         elif isinstance(q, Assign):
             if q.target.op != "var":
-                raise _refuse(q, "a family cell assigned outside a foreach")
+                raise refuse(q, "a family cell assigned outside a foreach")
             em.statement(q)
             em.assigned[q.target.payload] = None
         elif isinstance(q, Loop):
@@ -471,18 +471,18 @@ def c_family(theorem: Theorem, step: _Step) -> tuple[list[str], dict, dict, list
         elif isinstance(q, Choice):
             em.choice(q)
             for alt in q.alternatives:
-                for v in _scalars_written(alt, ""):
+                for v in scalars_written(alt, ""):
                     em.assigned[v] = None
         else:
-            raise _refuse(q, "not a statement of a vectorised controller")
+            raise refuse(q, "not a statement of a vectorised controller")
     unpinned = [name for name, was_read in em.pending.items() if was_read]
     if unpinned:
-        raise _refuse(havocs[unpinned[0]], "the step read this family before, and no test "
+        raise refuse(havocs[unpinned[0]], "the step read this family before, and no test "
                       f"`∀j ({unpinned[0]}(j) <-> ...)` pins its new value down")
-    outputs = _outputs(theorem, step, list(em.assigned), [], set())
+    outputs = step_outputs(theorem, step, list(em.assigned), [], set())
     result = []
     for v in outputs:
-        sort = _sort_of(theorem, v, REAL)
+        sort = sort_of(theorem, v, REAL)
         if sort.is_array and v not in em.pins:
             raise ExtractError(f"the family `{v}` is an output the step computes cell by cell; C writes only "
                                "scalar outputs and pinned families")

@@ -11,16 +11,16 @@ from __future__ import annotations
 from certiloop.kernel.extract.c.certified import cl_all, cl_constant, cl_op
 from certiloop.kernel.extract.c.family import local_type
 from certiloop.kernel.extract.c.syntax import c_comment
-from certiloop.kernel.extract.errors import ExtractError, _brief, _refuse
-from certiloop.kernel.extract.roots import _Root, _solutions
-from certiloop.kernel.extract.scalar import _Path, _Python
+from certiloop.kernel.extract.errors import ExtractError, brief, refuse
+from certiloop.kernel.extract.roots import Root, solutions
+from certiloop.kernel.extract.scalar import Path, Python
 from certiloop.models.lang.programs import Assign, Program, Seq, Test, written
 from certiloop.models.lang.terms import INT, REAL, Node, free_vars
 
 BLOCK = "goto blocked;"
 
 
-class _CScalar(_Python):
+class _CScalar(Python):
     def __init__(self, *args) -> None:
         super().__init__(*args)
         self.depth = 1
@@ -40,9 +40,9 @@ class _CScalar(_Python):
         if op == "var":
             name = n.payload
             if n.sort.is_array:
-                raise _refuse(n, "arrays in a scalar step are not written in C (only in Python)")
+                raise refuse(n, "arrays in a scalar step are not written in C (only in Python)")
             if n.sort == INT:
-                raise _refuse(n, "Int arithmetic is not written in certified C")
+                raise refuse(n, "Int arithmetic is not written in certified C")
             if name in subst:
                 if subst[name] is None:
                     raise ExtractError(f"`{name} := *` is read before a test pins it down; cannot extract")
@@ -50,12 +50,12 @@ class _CScalar(_Python):
             self.read(name)
             return f"cl_{name}"
         if op == "select":
-            raise _refuse(n, "arrays in a scalar step are not written in C (only in Python)")
+            raise refuse(n, "arrays in a scalar step are not written in C (only in Python)")
         if op in ("forall", "exists"):
-            raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
+            raise refuse(n, "not an arithmetic term or a quantifier-free formula")
         return cl_op(n, [self.code(x, subst) for x in n.args])
 
-    def root_code(self, root: _Root, subst: dict[str, str | None]) -> str:
+    def root_code(self, root: Root, subst: dict[str, str | None]) -> str:
         c = [self.code(p, subst, True) for p in root.parts]
         if root.kind == "value":
             return c[0]
@@ -78,7 +78,7 @@ class _CScalar(_Python):
             self.defined.add(name)
             self.assigned[name] = None
         elif isinstance(q, Assign):
-            raise _refuse(q, "arrays in a scalar step are not written in C (only in Python)")
+            raise refuse(q, "arrays in a scalar step are not written in C (only in Python)")
         else:
             super().statement(q)
 
@@ -87,21 +87,21 @@ class _CScalar(_Python):
         self.line(f"CL_TEST({cond});")
 
     def test(self, q: Test) -> None:
-        from certiloop.kernel.extract.analysis import _conjuncts, _mentions
+        from certiloop.kernel.extract.analysis import conjuncts, mentions
 
-        for atom in _conjuncts(q.cond):
+        for atom in conjuncts(q.cond):
             if atom.op == "true":
                 continue
-            target = next((v for v in self.opened if _mentions(atom, v)), None)
+            target = next((v for v in self.opened if mentions(atom, v)), None)
             if target is not None and atom.op == "cmp" and atom.payload == "==":
-                roots = _solutions(atom, target)
+                roots = solutions(atom, target)
                 if len(roots) != 1:
-                    raise _refuse(atom, f"a quadratic equation pins `{target}` outside a choice: which root "
+                    raise refuse(atom, f"a quadratic equation pins `{target}` outside a choice: which root "
                                   "to take depends on what follows; put it in a choice's alternative")
                 for g in roots[0].guards:
                     self.blocked(self.test_code(g))
                 value = self.root_code(roots[0], {})
-                self.line(f"cl_{target} = {value}; {c_comment('from ' + _brief(atom))}")
+                self.line(f"cl_{target} = {value}; {c_comment('from ' + brief(atom))}")
                 del self.opened[target]
                 self.pinned.add(target)
                 self.defined.add(target)
@@ -110,17 +110,17 @@ class _CScalar(_Python):
             self.blocked(self.test_code(atom))
 
     def for_loop(self, statements: list[Program], var: str, lo: Node, hi: Node, body: list[Program]) -> None:
-        from certiloop.kernel.extract.analysis import _reads
+        from certiloop.kernel.extract.analysis import reads_of
 
         changed = written(Seq(tuple(body))) if body else {}
         if lo.sort != INT or hi.sort != INT:
-            raise _refuse(statements[1], "a `for` loop's bounds must be Int terms")
+            raise refuse(statements[1], "a `for` loop's bounds must be Int terms")
         for name in [var, *free_vars(lo), *free_vars(hi)]:
             if name in changed:
-                raise _refuse(statements[1], f"the loop's body writes `{name}`, which its counter or bounds "
+                raise refuse(statements[1], f"the loop's body writes `{name}`, which its counter or bounds "
                               "read")
         lo_code, hi_code = self.code(lo), self.code(hi)
-        later = _reads(self.step, skip={id(s) for s in statements})
+        later = reads_of(self.step, skip={id(s) for s in statements})
         for name, sym in changed.items():
             if not sym.sort.is_array and name not in self.defined and name in (later | self.live):
                 self.read(name)
@@ -137,26 +137,26 @@ class _CScalar(_Python):
             self.line(f"{var} = ({lo_code}) > ({hi_code}) ? ({lo_code}) : ({hi_code});")
 
     # ------------------------------------------------------------------ choices
-    def in_path(self, q: Program, path: _Path) -> list[_Path]:
+    def in_path(self, q: Program, path: Path) -> list[Path]:
         if isinstance(q, Assign) and q.target.op != "var":
-            raise _refuse(q, "arrays in a scalar step are not written in C (only in Python)")
+            raise refuse(q, "arrays in a scalar step are not written in C (only in Python)")
         return super().in_path(q, path)
 
     def choice(self, p) -> None:
-        from certiloop.kernel.extract.analysis import _parts, _reads
+        from certiloop.kernel.extract.analysis import reads_of, seq_parts
         from certiloop.kernel.extract.scalar import MAX_PATHS
-        from certiloop.kernel.extract.template import _tag
+        from certiloop.kernel.extract.template import choice_tag
 
-        paths: list[_Path] = []
+        paths: list[Path] = []
         for k, (alt, label) in enumerate(zip(p.alternatives, p.labels)):
-            paths += self.walk(_parts(alt), [_Path(_tag(label, k), label)])
+            paths += self.walk(seq_parts(alt), [Path(choice_tag(label, k), label)])
             if len(paths) > MAX_PATHS:
-                raise _refuse(p, f"more than {MAX_PATHS} ways through its nested choices")
-        live = self.live | _reads(self.step, skip={id(p)})
+                raise refuse(p, f"more than {MAX_PATHS} ways through its nested choices")
+        live = self.live | reads_of(self.step, skip={id(p)})
         for path in paths:
             for v, s in path.subst.items():
                 if s is None and v in live and not v.startswith("["):
-                    raise _refuse(p, f"`{v} := *` in `{path.label}` is never pinned down but read later")
+                    raise refuse(p, f"`{v} := *` in `{path.label}` is never pinned down but read later")
         commits: list[list[str]] = []
         changed: dict[str, None] = {}
         for path in paths:
@@ -175,7 +175,7 @@ class _CScalar(_Python):
             self.defined.add(v)
             self.assigned[v] = None
 
-    def _elif_chain(self, paths: list[_Path], commits: list[list[str]]) -> None:
+    def _elif_chain(self, paths: list[Path], commits: list[list[str]]) -> None:
         """The first alternative that holds; one the floats cannot decide before it: CL_UNSURE."""
         self.uses_t = True
         for n, (path, body) in enumerate(zip(paths, commits)):
@@ -197,7 +197,7 @@ class _CScalar(_Python):
         self.line(f"    {BLOCK}")
         self.line("}")
 
-    def _attempts(self, paths: list[_Path], commits: list[list[str]]) -> None:
+    def _attempts(self, paths: list[Path], commits: list[list[str]]) -> None:
         """Alternatives whose conditions need solved values: each tried in turn, every value
         computed only where its guard holds; a guard the floats cannot decide: CL_UNSURE."""
         self.uses_taken = self.uses_t = True
@@ -242,7 +242,7 @@ class _CScalar(_Python):
 def c_scalar(theorem, step) -> tuple[list[str], dict, list[tuple[str, object]], list[str]]:
     """The C body of a scalar step: (lines, scalar params with sorts, outputs with sorts, the
     declarations of its locals)."""
-    from certiloop.kernel.extract.analysis import _mode_choice, _outputs
+    from certiloop.kernel.extract.analysis import mode_choice, step_outputs
     from certiloop.models.lang.terms import BOOL, Var
 
     parts = list(step.parts)
@@ -250,7 +250,7 @@ def c_scalar(theorem, step) -> tuple[list[str], dict, list[tuple[str, object]], 
     live = set(step.reads)
     rates: list[str] = []
     if step.where == "modes":
-        modes, rates = _mode_choice(step.plant, symbols)
+        modes, rates = mode_choice(step.plant, symbols)
         parts.append(modes)
         live |= set(rates)
         symbols.update((r, Var(r, REAL)) for r in rates)
@@ -260,7 +260,7 @@ def c_scalar(theorem, step) -> tuple[list[str], dict, list[tuple[str, object]], 
         both = sorted(em.pinned & set(em.inputs))
         raise ExtractError(f"`{both[0]} := *` is pinned by an equation on some paths and read as an input "
                            "on others; cannot extract")
-    outputs = rates or _outputs(theorem, step, list(em.assigned), list(em.inputs), em.tested)
+    outputs = rates or step_outputs(theorem, step, list(em.assigned), list(em.inputs), em.tested)
     sort = lambda v: symbols[v].sort  # noqa: E731
     params = {v: sort(v) for v in em.params}
     if any(s.is_array for s in params.values()):

@@ -12,9 +12,8 @@ from __future__ import annotations
 
 import re
 
-from certiloop.kernel.extract.errors import ExtractError, _refuse
-from certiloop.kernel.extract.template import MAX_POWER
-from certiloop.models.lang.terms import BOOL, INT, REAL, Node
+from certiloop.kernel.extract.errors import ExtractError
+from certiloop.models.lang.terms import BOOL, INT, REAL
 
 CFLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-ffp-contract=off"]
 
@@ -50,49 +49,6 @@ def c_type(sort) -> str:
 def c_element_type(sort) -> str:
     """The element type of a family or array passed by pointer (Bool: one byte, as numpy's bool)."""
     return "unsigned char" if sort == BOOL else c_type(sort)
-
-
-def c_const(n: Node, real: bool) -> str:
-    v = n.payload
-    if v.denominator == 1 and n.sort == INT and not real:
-        return f"{int(v)}LL" if abs(int(v)) > 2**31 - 1 else str(int(v))
-    text = repr(float(v)) if v.denominator != 1 else f"{int(v)}.0"
-    if text in ("inf", "-inf", "nan"):
-        raise _refuse(n, "a constant outside the double range")
-    return text
-
-
-def c_op(n: Node, a: list[str]) -> str:
-    """C for an operator node, given its arguments' C code: the same tree as the Python code."""
-    op = n.op
-    if op == "+":
-        return "(" + " + ".join(a) + ")"
-    if op == "*":
-        return "(" + " * ".join(a) + ")"
-    if op == "neg":
-        return f"(-{a[0]})"
-    if op == "/":
-        return f"({a[0]} / {a[1]})"
-    if op == "^":
-        k = n.payload
-        if k == 1:
-            return a[0]
-        if not (isinstance(k, int) and 2 <= k <= MAX_POWER):
-            raise _refuse(n, f"only natural powers up to {MAX_POWER} are written in C")
-        return "(" + " * ".join([a[0]] * k) + ")"
-    if op == "cmp":
-        return f"({a[0]} {n.payload} {a[1]})"
-    if op == "and":
-        return "(" + " && ".join(a) + ")" if a else "1"
-    if op == "or":
-        return "(" + " || ".join(a) + ")" if a else "0"
-    if op == "not":
-        return f"(!{a[0]})"
-    if op == "implies":
-        return f"((!{a[0]}) || {a[1]})"
-    if op == "iff":
-        return f"((!{a[0]}) == (!{a[1]}))"
-    raise _refuse(n, "not an arithmetic term or a quantifier-free formula")
 
 
 _ASSIGNMENT = re.compile(r"^\s*(?:double |int |long long |unsigned char |cl_real )?(\w+) = [^;]*;"

@@ -155,10 +155,10 @@ def executor_for(args: argparse.Namespace):
     """The campaign's batches run here: None (this process), a local process pool (--jobs) or a
     Dask cluster (--executor, which the campaign leaves running)."""
     if args.executor:
-        from certiloop.proofs.engine.prover import _dask_executor
+        from certiloop.proofs.engine.prover import dask_executor
 
         try:
-            executor = _dask_executor(args.executor)
+            executor = dask_executor(args.executor)
         except ImportError as exc:
             raise BadInput(str(exc)) from None
         try:
