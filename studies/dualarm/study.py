@@ -6,8 +6,7 @@ HERE = "certiloop.studies.dualarm"
 
 STUDY = Study(
     name="dualarm",
-    title=("Formal Verification of a Collision-free Algorithm of Dual-arm Robot in HOL4 (Li, Shi, "
-           "Guan, Zhao, Zhang, Wei)"),
+    title="Formal Verification of a Collision-free Algorithm of Dual-arm Robot in HOL4",
     order=20,
     package=HERE,
     models={

@@ -6,8 +6,7 @@ HERE = "certiloop.studies.raven"
 
 STUDY = Study(
     name="raven",
-    title=("Surgeon Training in Telerobotic Surgery via a Hardware-in-the-Loop Simulator (Li, "
-           "Alemzadeh, Chen, Kalbarczyk, Iyer, Kesavadas, J. Healthcare Eng. 2017)"),
+    title="Surgeon Training in Telerobotic Surgery via a Hardware-in-the-Loop Simulator",
     order=50,
     package=HERE,
     models={

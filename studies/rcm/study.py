@@ -7,8 +7,8 @@ HERE = "certiloop.studies.rcm"
 
 STUDY = Study(
     name="rcm",
-    title=("A passive admittance controller to enforce Remote Center of Motion and Tool Spatial "
-           "constraints with application in hands-on surgical procedures (Kastritsi, Doulgeri)"),
+    title=("A passive admittance controller to enforce Remote Center of Motion and Tool Spatial"
+           " constraints with application in hands-on surgical procedures"),
     order=40,
     package=HERE,
     models={

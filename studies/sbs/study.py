@@ -6,8 +6,7 @@ HERE = "certiloop.studies.sbs"
 
 STUDY = Study(
     name="sbs",
-    title=("Certifying the Safe Design of a Virtual Fixture Control Algorithm for a Surgical Robot "
-           "(Kouskoulas, Renshaw, Platzer, Kazanzides, HSCC 2013)"),
+    title="Certifying the Safe Design of a Virtual Fixture Control Algorithm for a Surgical Robot",
     order=10,
     package=HERE,
     models={
