@@ -36,7 +36,7 @@ _SOLUTIONS: dict[tuple, dict[str, Node] | None] = {}
 def polynomial_solution(ode: ODE, s: Node) -> dict[str, Node] | None:
     """x_i(s) for every ODE variable if the system's solution is polynomial in time, else None.
 
-    Works for the triangular (nilpotent) systems the seeds use, e.g.
+    Works for the triangular (nilpotent) systems the case studies use, e.g.
     p' = G*f*k, f' = fp, t' = 1: repeatedly integrate an equation whose right-hand side
     only mentions already-solved variables (substituted all at once, never one after the
     other). The result is used only after `check_solution` has differentiated it back: its
