@@ -166,6 +166,12 @@ def check_state(name: str, state: dict) -> str:
     if any(o in final and _sorts(name).get(o) == REAL and abs(Fraction(final[o])) > huge for o in outputs):
         assert enabled is False, f"{name}: a real output beyond the float range from {state}: no run"
         return "beyond the float range"
+    rates = [o for o in outputs if o not in final]  # x_dot of a switched plant's mode: not in the run
+    big = max((abs(Fraction(v)) for v in state.values() if isinstance(v, float)), default=Fraction(0))
+    if rates and not enabled and big * big > huge:
+        # a rate is a product of inputs (G * fy): one beyond the float range is no run, as for any
+        # real output; this only accepts "no run" where two inputs' product can leave the range
+        return "beyond the float range"
     assert enabled is True, f"{name}: the exact model runs from {state} ({decision}); the code says none"
     for out, got in zip(outputs, values):
         if out not in final:  # a rate x_dot of a switched plant's mode: the decision is checked
