@@ -9,7 +9,7 @@ from certiloop.cli.errors import Parser
 
 # the order `certiloop --help` lists them in
 COMMANDS = {"list": "listing", "prove": "prove", "falsify": "falsify", "extract": "extract", "gate": "gate",
-            "export": "export"}
+            "export": "export", "check-proof": "check_proof"}
 
 
 def version() -> str:

@@ -41,6 +41,8 @@ class TheoremResult:
     nonblocking: list[ObligationResult] | None = None
     witness: str = ""  # the vacuity witness run: how it replayed, or why there is none
     witness_replayed: bool = False
+    # (theorem, ODE plan) whose obligations the results are: what a certificate records
+    proof: Any = field(default=None, repr=False)
 
     @property
     def nonblocking_verdict(self) -> str | None:
@@ -168,6 +170,7 @@ class Prover:
             return self._witnessed(theorem, options, on_result, on_start, smtlib_dir)
         start = time.perf_counter()
         self._memo = {}
+        source = (theorem, {})
         too_many: TooManyObligations | None = None
         try:
             obligations = generate(theorem, limit=self.budget.max_obligations)
@@ -212,8 +215,10 @@ class Prover:
                     on_result(r)
         else:
             results = self._screened(obligations, on_result)
+            self._source = (theorem, {})
             if any(r.verdict != "proved" for r in results):
                 results = self._planned(theorem, results)
+            source = self._source
             if search and any(r.verdict != "proved" for r in results):
                 refutation, why = self._run(_refute_task, theorem, self.budget)
                 evidence = confirm_run(theorem, refutation) if refutation is not None else None
@@ -226,6 +231,8 @@ class Prover:
         result = TheoremResult(theorem.name, decision.verdict, theorem.expected, 0.0, results,
                                decision.reason, refutation, run=evidence, ill_defined=decision.ill_defined,
                                inconsistent=decision.inconsistent)
+        if decision.verdict == "proved" and too_many is None:
+            result.proof = source
         if theorem.check_nonblocking and decision.verdict == "proved":
             self._vacuity(theorem, result)
         result.seconds = time.perf_counter() - start
@@ -306,14 +313,14 @@ class Prover:
                 continue
             planned = self._screened(generate(theorem, plan), None)
             if sum(r.verdict != "proved" for r in planned) < sum(r.verdict != "proved" for r in results):
-                results = planned
+                results, self._source = planned, (theorem, plan)
             if all(r.verdict == "proved" for r in results):
                 return results
         for option in ghost_options(theorem):  # eigen.py: the same claim, with a ghost's hints
             plan = plan_odes(option, lambda ob: discharge_one(ob, planning))
             planned = self._screened(generate(option, plan), None)
             if sum(r.verdict != "proved" for r in planned) < sum(r.verdict != "proved" for r in results):
-                results = planned
+                results, self._source = planned, (option, plan)
             if all(r.verdict == "proved" for r in results):
                 break
         return results
