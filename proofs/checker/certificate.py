@@ -54,8 +54,8 @@ def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
     except Malformed as exc:
         return Outcome("malformed", f"malformed certificate: {exc}")
     except NotCheckable as exc:
-        text = str(exc)
-        return Outcome("rejected", f"rejected: {text}" if "not checkable yet" in text else f"rejected: {text}: not checkable yet")
+        text = str(exc) if "not checkable yet" in str(exc) else f"{exc}: not checkable yet"
+        return Outcome("rejected", f"rejected: {text}")
     except Rejected as exc:
         return Outcome("rejected", f"rejected: {exc}", _texts(derived))
     except (ValueError, TypeError, KeyError, AttributeError, RecursionError) as exc:  # never an acceptance
@@ -191,7 +191,7 @@ def _ode_rule(entry: dict, ode: ODE, at: str) -> tuple[str, object]:
         solution = _fields(entry, {"at", "rule", "solution"}, f"rule at {at}")["solution"]
         if not isinstance(solution, dict):
             raise Malformed(f"rule at {at}: the solution must map each variable to a term's key")
-        terms = {str(v): keys.node(keys.literal(text)) for v, text in solution.items()}
+        terms = {str(v): keys.from_text(text) for v, text in solution.items()}
         if any(t.sort.name not in ("Real", "Int") or _outside(t) for t in terms.values()):
             raise Rejected(f"rules: at {at} the solution holds something other than a polynomial term")
         return "solve", terms
@@ -202,8 +202,8 @@ def _ode_rule(entry: dict, ode: ODE, at: str) -> tuple[str, object]:
         links = []
         for link in chain:
             link = _fields(link, {"atom", "method", "cofactor"}, f"a link at {at}")
-            atom = keys.formula(keys.literal(link["atom"]))
-            cofactor = None if link["cofactor"] is None else keys.node(keys.literal(link["cofactor"]))
+            atom = keys.from_text(link["atom"], want_formula=True)
+            cofactor = None if link["cofactor"] is None else keys.from_text(link["cofactor"])
             if link["method"] not in ODE_METHODS:
                 raise NotCheckable(f"rule {link['method']!r} not checkable yet")
             if bad := _outside(atom) or (cofactor is not None and _outside(cofactor)):

@@ -65,7 +65,8 @@ class Derivation:
 
     def run(self) -> list[Leaf]:
         start = State((self.theorem.assumptions,), {}, ())
-        self.exec(self.theorem.program, "0", start, lambda st: self.emit(st, self.theorem.guarantee, "postcondition"))
+        post = self.theorem.guarantee
+        self.exec(self.theorem.program, "0", start, lambda st: self.emit(st, post, "postcondition"))
         return self.leaves
 
     def emit(self, st: State, goal: Node, what: str) -> None:
@@ -138,7 +139,8 @@ class Derivation:
                 cond = premise(atom, p, method, cofactor)
                 if cond is not None:
                     what = "never zero in the domain" if method == "nonzero" else "derivative condition"
-                    self.emit(after.assume(*(after.value(f) for f in known)).at(f"ODE {method} {n}"), cond, what)
+                    inside = after.assume(*(after.value(f) for f in known))
+                    self.emit(inside.at(f"ODE {method} {n}"), cond, what)
                 known.append(atom)
             k(after.assume(*(after.value(f) for f in known)).at("ODE dC/dW"))
         else:

@@ -86,7 +86,9 @@ def lie_derivative(f: Node, ode: ODE) -> Node:
     """d/dt f along the ODE: sum of df/dx * x' (symbols without an equation are constant)."""
     table = Table()
     e = to_sympy(f, table)
-    total = sum((sympy.diff(e, table.symbol(v)) * to_sympy(rhs, table) for v, rhs in ode.eqs), sympy.Integer(0))
+    total = sympy.Integer(0)
+    for v, rhs in ode.eqs:  # the symbol of v before those of its right-hand side, as sympy orders by name
+        total += sympy.diff(e, table.symbol(v)) * to_sympy(rhs, table)
     return from_sympy(sympy.simplify(sympy.expand(total)), table)
 
 

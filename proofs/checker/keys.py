@@ -74,6 +74,15 @@ def node(key) -> Node:
     return Node(op, tuple(node(a) for a in args), sort(sort_text), payload)
 
 
+def from_text(text: str, want_formula: bool = False) -> Node:
+    """The node whose key's text this is, exactly (another text for the same node is malformed:
+    a certificate holds one spelling of each thing, so any change to it is seen)."""
+    n = formula(literal(text)) if want_formula else node(literal(text))
+    if repr(n.key) != text:
+        raise Malformed(f"the key text {text[:60]!r} is not in canonical form")
+    return n
+
+
 def formula(key) -> Node:
     n = node(key)
     if n.sort != BOOL:
@@ -117,7 +126,7 @@ def theorem(canonical: str) -> Theorem:
     parts = literal(canonical)
     if not isinstance(parts, tuple) or len(parts) < 11 or parts[0] != THEOREM_FORMAT:
         raise Malformed(f"the theorem's text is not a {THEOREM_FORMAT} canonical text")
-    _, name, expected, assumptions, prog, guarantee, abbrevs, constants, scenarios, unroll, nonblocking = parts[:11]
+    _, name, expected, assumptions, prog, guarantee, abbrevs, constants, scenarios, unroll, once = parts[:11]
     extra = {}
     for item in parts[11:]:
         if not (isinstance(item, tuple) and len(item) == 2 and item[0] in
@@ -129,8 +138,9 @@ def theorem(canonical: str) -> Theorem:
         t = Theorem(name=name, assumptions=formula(assumptions), program=program(prog),
                     guarantee=formula(guarantee), expected=expected,
                     abbreviations={str(k): node(v) for k, v in abbrevs},
-                    constants=tuple(node(c) for c in constants), scenarios=tuple(formula(s) for s in scenarios),
-                    unroll=unroll[1], check_nonblocking=nonblocking[1], **extra)
+                    constants=tuple(node(c) for c in constants),
+                    scenarios=tuple(formula(s) for s in scenarios),
+                    unroll=unroll[1], check_nonblocking=once[1], **extra)
     except (ModelError, TypeError, ValueError, IndexError) as exc:
         if isinstance(exc, Malformed):
             raise
