@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
-from certiloop.models.lang.terms import REAL, TRUE, And, Implies, Node, Var, substitute
+from certiloop.models.lang.terms import REAL, And, Implies, Node, Var, store, substitute
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.checker.flows import NotCheckable, check_solution, holds_along, premise
 
@@ -83,11 +83,21 @@ class Derivation:
         self.count += 1
         return st.bind({nm: self.fresh(nm, v.sort, self.count) for nm, v in variables.items()})
 
+    def write(self, st: State, target: Node, value: Node) -> dict[str, Node]:
+        """x := v, or a[i] := v as a := store(a, i, v) with i evaluated in this state."""
+        if target.op == "var":
+            return {target.payload: value}
+        indices: list[Node] = []
+        while target.op == "select":
+            indices[:0] = target.args[1:]
+            target = target.args[0]
+        return {target.payload: store(st.value(target), tuple(st.value(i) for i in indices), value)}
+
     def exec(self, p: Program, at: str, st: State, k: Callable[[State], None]) -> None:
         if isinstance(p, Assign):
-            k(st.bind({p.target.payload: st.value(p.value)}))
+            k(st.bind(self.write(st, p.target, st.value(p.value))))
         elif isinstance(p, Havoc):
-            k(st.bind({p.target.payload: self.fresh(p.target.payload, p.target.sort)}))
+            k(st.bind(self.write(st, p.target, self.fresh(_root(p.target).payload, p.target.sort))))
         elif isinstance(p, Test):
             k(st.assume(st.value(p.cond)))
         elif isinstance(p, Seq):
@@ -147,8 +157,12 @@ class Derivation:
             raise NotCheckable(f"rule ODE {rule} not checkable yet")
 
 
+def _root(target: Node) -> Node:
+    while target.op == "select":
+        target = target.args[0]
+    return target
+
+
 class Rejected(Exception):
     """A step of the certificate is wrong: exit 1, naming it."""
 
-
-__all__ = ["TRUE", "Derivation", "Leaf", "Rejected"]

@@ -54,12 +54,14 @@ class Table:
 def to_sympy(n: Node, table: Table) -> sympy.Expr:
     if n.op == "const":
         return sympy.Rational(n.payload.numerator, n.payload.denominator)
-    if n.op == "var":
-        return table.symbol(n)
+    if n.op in ("var", "select", "store"):
+        return table.symbol(n)  # an array read is a symbol (lie_derivative checks that it is constant)
     if n.op in ("+", "*"):
         return (sympy.Add if n.op == "+" else sympy.Mul)(*(to_sympy(a, table) for a in n.args))
     if n.op == "neg":
         return -to_sympy(n.args[0], table)
+    if n.op == "/":
+        return to_sympy(n.args[0], table) / to_sympy(n.args[1], table)
     if n.op == "^":
         return to_sympy(n.args[0], table) ** n.payload
     raise NotCheckable(f"the term `{n}` ({n.op}) in an ODE rule")
@@ -86,6 +88,9 @@ def lie_derivative(f: Node, ode: ODE) -> Node:
     """d/dt f along the ODE: sum of df/dx * x' (symbols without an equation are constant)."""
     table = Table()
     e = to_sympy(f, table)
+    moving = {v.payload for v, rhs in ode.eqs if not (rhs.op == "const" and rhs.payload == 0)}
+    if any(atom.op != "var" and set(free_vars(atom)) & moving for atom in table.back.values()):
+        raise NotCheckable(f"the derivative of `{f}`, which reads an array at an index the flow moves")
     total = sympy.Integer(0)
     for v, rhs in ode.eqs:  # the symbol of v before those of its right-hand side, as sympy orders by name
         total += sympy.diff(e, table.symbol(v)) * to_sympy(rhs, table)
