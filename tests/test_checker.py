@@ -34,7 +34,8 @@ def test_a_leaf_is_the_formula_hand_mathematics_gives():
 def test_the_solution_rule_checks_the_recorded_solution_by_differentiation():
     """x' = v, v' = a from the start: x(s) = x + v s + a s^2 / 2, v(s) = v + a s."""
     plant = ode({x: v, v: a}, v >= 0)
-    t = Theorem("tiny.flow", And(x >= 0, v >= 0, a >= 0), loop(plant, invariant=x >= 0), x >= 0, constants=(a,))
+    t = Theorem("tiny.flow", And(x >= 0, v >= 0, a >= 0), loop(plant, invariant=x >= 0), x >= 0,
+                constants=(a,))
     doc = _doc(t)
     ode_rule = next(r for r in doc["rules"] if r["rule"] == "solve")
     assert check(doc).status == "accepted"
