@@ -63,17 +63,30 @@ def test_a_differential_invariant_that_is_not_one_is_rejected():
 
 
 def test_a_rule_not_covered_yet_is_refused_never_accepted():
-    doc = _doc(textbook.train())  # divides by the braking rate b
-    outcome = check(doc)
+    from certiloop.proofs.core.odes import OdeStep
+
+    plant = ode({x: 1}, invariants=[x >= 0])
+    t = Theorem("tiny.progress", x >= 0, plant, x >= 0)
+    outcome = check(_doc(t, {plant.key: (OdeStep(x >= 0, "progress"),)}))
     assert outcome.status == "rejected" and outcome.exit_code == 1
-    assert "rule well-defined (a division by a term) not checkable yet" in outcome.message
+    assert "rule 'progress' not checkable yet" in outcome.message
+
+
+def test_a_division_by_zero_is_a_failing_leaf():
+    """x >= 0 -> [y := 1/x] y >= 0 divides by 0 at x = 0: its well-definedness leaf
+    x >= 0 -> x != 0 is false, so no certificate of it is accepted (1/x >= 0 holds for x > 0)."""
+    t = Theorem("tiny.divide", x >= 0, assign(y, 1 / x), y >= 0)
+    doc = _doc(t)
+    assert doc["leaves"][0]["smtlib"] == script(Implies(x >= 0, x != 0))
+    outcome = check(doc)
+    assert outcome.status == "rejected" and "well-defined" in outcome.message
 
 
 def test_check_proof_exit_codes_and_smtlib_export(tmp_path, capsys):
     good = tmp_path / "ball.json"
     good.write_text(json.dumps(certificate(textbook.bouncing_ball(), {})))
-    bad = tmp_path / "train.json"
-    bad.write_text(json.dumps(certificate(textbook.train(), {})))
+    bad = tmp_path / "tilt.json"
+    bad.write_text(json.dumps(certificate(textbook.bouncing_ball_superelastic(), {})))
     broken = tmp_path / "broken.json"
     broken.write_text("{not json")
     out = tmp_path / "smt"
@@ -81,7 +94,7 @@ def test_check_proof_exit_codes_and_smtlib_export(tmp_path, capsys):
     assert main(["check-proof", str(good), str(bad)]) == 1
     assert main(["check-proof", str(good), str(broken)]) == 2
     text = capsys.readouterr().out
-    assert "accepted: textbook.bouncing_ball" in text and "not checkable yet" in text and "malformed" in text
+    assert "accepted: textbook.bouncing_ball" in text and "z3 says sat" in text and "malformed" in text
     files = sorted(out.glob("*.smt2"))
     assert len(files) == len(json.loads(good.read_text())["leaves"])
     for f in files:  # any solver can re-run them: z3 from the file alone says unsat

@@ -24,7 +24,8 @@ from typing import Callable
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import REAL, And, Implies, Node, Var, store, substitute
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.checker.flows import NotCheckable, check_solution, holds_along, premise
+from certiloop.proofs.checker.defined import defined, divides
+from certiloop.proofs.checker.flows import NotCheckable, check_solution, premise, runs_along
 
 FLOW_TIME = Var("s@flow")  # the time variable of a recorded solution
 
@@ -64,10 +65,20 @@ class Derivation:
         self.leaves: list[Leaf] = []
 
     def run(self) -> list[Leaf]:
+        self.require(State((), {}, ()), "the assumptions", self.theorem.assumptions)
         start = State((self.theorem.assumptions,), {}, ())
-        post = self.theorem.guarantee
-        self.exec(self.theorem.program, "0", start, lambda st: self.emit(st, post, "postcondition"))
+        self.exec(self.theorem.program, "0", start, self.postcondition)
         return self.leaves
+
+    def postcondition(self, st: State) -> None:
+        self.require(st, "the guarantee", self.theorem.guarantee)
+        self.emit(st, self.theorem.guarantee, "postcondition")
+
+    def require(self, st: State, what: str, *parts: Node) -> None:
+        """A leaf saying that `parts`, evaluated here, never divide by 0 (none when they cannot)."""
+        needed = And(*(defined(f) for f in parts))
+        if needed.op != "true":
+            self.emit(st, needed, f"well-defined: {what} (no division by 0)")
 
     def emit(self, st: State, goal: Node, what: str) -> None:
         formula = Implies(And(*st.facts), st.value(goal))
@@ -95,10 +106,13 @@ class Derivation:
 
     def exec(self, p: Program, at: str, st: State, k: Callable[[State], None]) -> None:
         if isinstance(p, Assign):
+            self.require(st, f"`{p}`", *_indices(p.target), p.value)
             k(st.bind(self.write(st, p.target, st.value(p.value))))
         elif isinstance(p, Havoc):
+            self.require(st, f"`{p}`", *_indices(p.target))
             k(st.bind(self.write(st, p.target, self.fresh(_root(p.target).payload, p.target.sort))))
         elif isinstance(p, Test):
+            self.require(st, f"`{p}`", p.cond)
             k(st.assume(st.value(p.cond)))
         elif isinstance(p, Seq):
             self.sequence(p.parts, at, 0, st, k)
@@ -120,16 +134,27 @@ class Derivation:
 
     def loop(self, p: Loop, at: str, st: State, k: Callable[[State], None]) -> None:
         inv = p.invariant if p.invariant is not None else self.theorem.guarantee
-        self.emit(st.at(f"{p.label} init"), inv, "invariant holds initially")
+        init = st.at(f"{p.label} init")
+        self.require(init, "the invariant", inv)
+        self.emit(init, inv, "invariant holds initially")
         inside = self.havoc(st, written(p.body))
         inside = inside.assume(inside.value(inv))
-        self.exec(p.body, f"{at}.0", inside.at(f"{p.label} step"),
-                  lambda s: self.emit(s, inv, "invariant preserved"))
+
+        def preserved(s: State) -> None:
+            self.require(s, "the invariant", inv)
+            self.emit(s, inv, "invariant preserved")
+
+        self.exec(p.body, f"{at}.0", inside.at(f"{p.label} step"), preserved)
         k(inside.at(f"{p.label} use"))
 
     def ode(self, p: ODE, at: str, st: State, k: Callable[[State], None]) -> None:
         rule, hint = self.odes[at]
         variables = {v.payload: v for v in p.variables}
+        if any(divides(f) for f in (p.domain, *(f for _, f in p.eqs))):  # defined wherever it may go
+            anywhere = self.havoc(st, variables).at("ODE")
+            flow = And(defined(p.domain), Implies(p.domain, And(*(defined(f) for _, f in p.eqs))))
+            if flow.op != "true":
+                self.emit(anywhere, flow, "well-defined: right-hand side and domain (no division by 0)")
         if rule == "dW":
             after = self.havoc(st, variables)
             k(after.assume(after.value(p.domain)).at("ODE dW"))
@@ -137,7 +162,7 @@ class Derivation:
             if (why := check_solution(p, hint, FLOW_TIME)) is not None:
                 raise Rejected(f"ODE at {at}: the recorded solution is wrong: {why}")
             tau = self.fresh("t", REAL)
-            along = holds_along(p.domain, hint, tau, FLOW_TIME)
+            along = runs_along(p, hint, tau, FLOW_TIME)
             end = {name: st.value(substitute(x, {FLOW_TIME.payload: tau})) for name, x in hint.items()}
             k(st.assume(tau >= 0, st.value(along)).bind(end).at("ODE solve"))
         elif rule == "dC":
@@ -145,6 +170,9 @@ class Derivation:
             start = st.assume(st.value(p.domain))
             known = [p.domain]
             for n, (atom, method, cofactor) in enumerate(hint, 1):
+                if divides(atom):  # its denominator nonzero all along, given the links before it
+                    inside = after.assume(*(after.value(f) for f in known)).at(f"ODE {method} {n}")
+                    self.emit(inside, defined(atom), "well-defined: the invariant (no division by 0)")
                 self.emit(start.at(f"ODE {method} {n} init"), atom, "holds initially")
                 cond = premise(atom, p, method, cofactor)
                 if cond is not None:
@@ -155,6 +183,14 @@ class Derivation:
             k(after.assume(*(after.value(f) for f in known)).at("ODE dC/dW"))
         else:
             raise NotCheckable(f"rule ODE {rule} not checkable yet")
+
+
+def _indices(target: Node) -> tuple[Node, ...]:
+    idx: list[Node] = []
+    while target.op == "select":
+        idx[:0] = target.args[1:]
+        target = target.args[0]
+    return tuple(idx)
 
 
 def _root(target: Node) -> Node:

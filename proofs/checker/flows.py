@@ -20,6 +20,7 @@ from certiloop.models.lang.terms import (
     Implies,
     Node,
     Not,
+    Or,
     Real,
     add,
     cmp,
@@ -29,6 +30,7 @@ from certiloop.models.lang.terms import (
     substitute,
     term,
 )
+from certiloop.proofs.checker.defined import denominators, divides
 
 
 class NotCheckable(Exception):
@@ -79,8 +81,9 @@ def from_sympy(e: sympy.Expr, table: Table) -> Node:
         if den != 1:
             return from_sympy(num, table) / from_sympy(den, table)
         return mul(*(from_sympy(a, table) for a in e.args))
-    if e.is_Pow and e.exp.is_Integer and int(e.exp) >= 0:
-        return term(from_sympy(e.base, table)) ** int(e.exp)
+    if e.is_Pow and e.exp.is_Integer:
+        power = term(from_sympy(e.base, table)) ** abs(int(e.exp))
+        return power if int(e.exp) >= 0 else const(1) / power
     raise NotCheckable(f"the sympy expression {e} as a model term")
 
 
@@ -122,13 +125,15 @@ def premise(atom: Node, ode: ODE, method: str, cofactor: Node | None) -> Node | 
     weak = ">=" if op in (">=", ">") else "=="
     if method == "dI":  # p' >= 0 keeps p >= 0 and p > 0; p' = 0 keeps p = 0 and p != 0
         return cmp(weak, dp, 0)
+    if cofactor is not None and divides(cofactor):  # sound only where it is continuous: not yet
+        raise NotCheckable(f"rule dbx with the rational cofactor `{cofactor}` not checkable yet")
     if method == "dbx" and cofactor is not None and cofactor.sort.is_numeric:
         table = Table()  # p' - g p >= 0 (= 0): the sign of p never changes (Darboux)
         rest = sympy.expand(to_sympy(dp, table) - to_sympy(cofactor, table) * to_sympy(p, table))
         return None if sympy.cancel(rest) == 0 else cmp(weak, from_sympy(rest, table), 0)
     if method == "barrier" and op in (">", ">="):  # where p = 0, p increases (p' > 0)
         return Implies(cmp("==", p, 0), cmp(">", dp, 0))
-    if method == "nonzero":  # p never 0 inside the domain: p keeps its initial sign
+    if method == "nonzero" and not divides(p):  # p never 0 in the domain: p keeps its initial sign
         return cmp("!=", p, 0)
     raise NotCheckable(f"rule {method} for `{atom}` not checkable yet")
 
@@ -149,11 +154,29 @@ def check_solution(ode: ODE, solution: dict[str, Node], s: Node) -> str | None:
     along = {table.symbol(v): to_sympy(solution[v.payload], table) for v in ode.variables}
     for v, rhs in ode.eqs:
         x = along[table.symbol(v)]
-        if sympy.expand(x.xreplace({ssym: 0}) - table.symbol(v)) != 0:
+        if sympy.cancel(x.xreplace({ssym: 0}) - table.symbol(v)) != 0:
             return f"{v.payload}(0) is not {v.payload}"
-        if sympy.expand(sympy.diff(x, ssym) - to_sympy(rhs, table).xreplace(along)) != 0:
+        if sympy.cancel(sympy.diff(x, ssym) - to_sympy(rhs, table).xreplace(along)) != 0:
             return f"d/ds {v.payload}(s) is not its right-hand side along the solution"
     return None
+
+
+def runs_along(ode: ODE, solution: dict[str, Node], tau: Node, s: Node) -> Node:
+    """Following the solution for tau is a run: the domain holds all along, and each
+    denominator of the right-hand side keeps its sign (> 0 or < 0) all along."""
+    dividing = {d.key: d for _, f in ode.eqs for d in denominators(f)}
+    return And(holds_along(ode.domain, solution, tau, s), *(_keeps_sign(d, solution, tau, s)
+                                                            for d in dividing.values()))
+
+
+def _keeps_sign(d: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
+    return Or(*(_along_or_quantified(cmp(op, d, 0), solution, tau, s) for op in (">", "<")))
+
+
+def _along_or_quantified(atom: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
+    exact = _atom_along(atom, solution, tau, s)
+    return exact if exact is not None else \
+        ForAll(s, Implies(And(const(0) <= s, s <= tau), substitute(atom, solution)))
 
 
 TAU = Real("tau@along")  # the duration while the formula is built (sympy orders terms by name)
@@ -168,9 +191,9 @@ def holds_along(domain: Node, solution: dict[str, Node], tau: Node, s: Node) -> 
 def _holds_along(domain: Node, solution: dict[str, Node], tau: Node, s: Node) -> Node:
     parts = []
     for atom in domain.args if domain.op == "and" else (domain,):
-        exact = _atom_along(atom, solution, tau, s)
-        parts.append(exact if exact is not None else
-                     ForAll(s, Implies(And(const(0) <= s, s <= tau), substitute(atom, solution))))
+        if atom.op == "cmp":  # a divided atom holds on a run only where its denominators stay nonzero
+            parts += [_keeps_sign(d, solution, tau, s) for d in denominators(atom)]
+        parts.append(_along_or_quantified(atom, solution, tau, s))
     return And(*parts)
 
 
