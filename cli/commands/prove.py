@@ -43,7 +43,6 @@ def run(args: argparse.Namespace) -> int:
     from certiloop.cli import ui
     from certiloop.cli.report import show_result, show_unsupported
     from certiloop.models.lang.terms import ModelError
-    from certiloop.proofs.engine.certify import write_certificate
     from certiloop.proofs.engine.prover import Prover
 
     out, level = options.console(stderr=args.json == "-"), ui.verbosity(args)
@@ -71,6 +70,8 @@ def run(args: argparse.Namespace) -> int:
                     cross_check(result)
                 show_result(out, result, level)
                 if args.certificate and result.proof is not None:
+                    from certiloop.proofs.engine.certify import write_certificate
+
                     write_certificate(*result.proof, Path(args.certificate))
                 results.append(result)
                 docs.append(result.to_json())

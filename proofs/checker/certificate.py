@@ -13,7 +13,10 @@ import hashlib
 import re
 from dataclasses import dataclass
 
-import z3
+try:
+    import z3
+except ImportError as exc:  # the command's one-line error, as for the prover
+    raise ImportError("z3 is not installed: pip install z3-solver") from exc
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import Node
