@@ -9,7 +9,7 @@ from certiloop.cli.errors import Parser
 
 # the order `certiloop --help` lists them in
 COMMANDS = {"list": "listing", "prove": "prove", "falsify": "falsify", "extract": "extract", "gate": "gate",
-            "export": "export", "init": "init"}
+            "export": "export", "init": "init", "check-proof": "check_proof"}
 
 
 def version() -> str:

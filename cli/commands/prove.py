@@ -22,6 +22,8 @@ def add_parser(sub) -> None:
                        help="library name (sbs.ctrl1) or path/to/file.py:theorem")
     prove.add_argument("--json", metavar="F", help="write results as JSON to F ('-' for stdout)")
     prove.add_argument("--smtlib", metavar="DIR", help="write every obligation as an SMT-LIB 2.6 file")
+    prove.add_argument("--certificate", metavar="DIR", help="write a proof certificate (JSON, checked by "
+                       "`certiloop check-proof`) for each proved model into DIR")
     options.budget_flags(prove)
     options.cross_check_flag(prove)
     prove.add_argument("--allow-vacuous", action="store_true",
@@ -36,7 +38,8 @@ def add_parser(sub) -> None:
 
 def run(args: argparse.Namespace) -> int:
     options.check_common(args)
-    options.check_outputs(("--json", args.json, "file or -"), ("--smtlib", args.smtlib, "folder"))
+    options.check_outputs(("--json", args.json, "file or -"), ("--smtlib", args.smtlib, "folder"),
+                          ("--certificate", args.certificate, "folder"))
     from certiloop.api.loading import Unsupported, load_all
 
     theorems = load_all(args.models, keep_unsupported=True)  # all bad names fail before any work
@@ -70,6 +73,10 @@ def run(args: argparse.Namespace) -> int:
                 if args.cross_check:
                     cross_check(result)
                 show_result(out, result, level)
+                if args.certificate and result.proof is not None:
+                    from certiloop.proofs.engine.certify import write_certificate
+
+                    write_certificate(*result.proof, Path(args.certificate))
                 results.append(result)
                 docs.append(result.to_json())
     except KeyboardInterrupt:

@@ -48,6 +48,8 @@ class TheoremResult:
     witness: str = ""  # the vacuity witness run: how it replayed, or why there is none
     witness_replayed: bool = False
     vacuous: str = ""  # why the proof says nothing (vacuous.py), "" when it is not shown vacuous
+    # (theorem, ODE plan) whose obligations the results are: what a certificate records
+    proof: Any = field(default=None, repr=False)
 
     @property
     def nonblocking_verdict(self) -> str | None:
@@ -179,6 +181,7 @@ class Prover:
         # whether a proof would be vacuous, on a worker beside the proof of a claim expected to hold
         vacuous = self._submit(vacuity, theorem, self.budget) if theorem.expected == "proved" and \
             self._executor() is not None else None
+        source = (theorem, {})
         too_many: TooManyObligations | None = None
         try:
             obligations = generate(theorem, limit=self.budget.max_obligations)
@@ -223,8 +226,10 @@ class Prover:
                     on_result(r)
         else:
             results = self._screened(obligations, on_result)
+            self._source = (theorem, {})
             if any(r.verdict != "proved" for r in results):
                 results = self._planned(theorem, results)
+            source = self._source
             if search and any(r.verdict != "proved" for r in results):
                 refutation, why = self._run(_refute_task, theorem, self.budget)
                 evidence = confirm_run(theorem, refutation) if refutation is not None else None
@@ -241,6 +246,8 @@ class Prover:
         result = TheoremResult(theorem.name, decision.verdict, theorem.expected, 0.0, results,
                                decision.reason, refutation, run=evidence, ill_defined=decision.ill_defined,
                                inconsistent=decision.inconsistent)
+        if decision.verdict == "proved" and too_many is None:
+            result.proof = source
         if theorem.check_nonblocking and decision.verdict == "proved":
             self._vacuity(theorem, result)
         if decision.verdict == "proved":
@@ -323,14 +330,14 @@ class Prover:
                 continue
             planned = self._screened(generate(theorem, plan), None)
             if sum(r.verdict != "proved" for r in planned) < sum(r.verdict != "proved" for r in results):
-                results = planned
+                results, self._source = planned, (theorem, plan)
             if all(r.verdict == "proved" for r in results):
                 return results
         for option in ghost_options(theorem):  # eigen.py: the same claim, with a ghost's hints
             plan = plan_odes(option, lambda ob: discharge_one(ob, planning, shaping=False))
             planned = self._screened(generate(option, plan), None)
             if sum(r.verdict != "proved" for r in planned) < sum(r.verdict != "proved" for r in results):
-                results = planned
+                results, self._source = planned, (option, plan)
             if all(r.verdict == "proved" for r in results):
                 break
         return results

@@ -1,0 +1,303 @@
+"""Certificate format v1 (README.md): read one, re-derive its proof, compare, re-decide.
+
+Checks, in order (the first failure is reported): the format; the theorem's text (a canonical
+theorem, its hash); the fragment (what the checker covers); the rule at every program node
+and its hints; the obligations re-derived from the theorem with those hints; the proof tree
+and the leaves, each exactly (id, path, SMT-LIB text) the obligation the checker derived
+there; each leaf decided `unsat` by z3 under a deterministic resource limit.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import multiprocessing
+import re
+from dataclasses import dataclass
+
+try:
+    import z3
+except ImportError as exc:  # the command's one-line error, as for the prover
+    raise ImportError("z3 is not installed: pip install z3-solver") from exc
+
+from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test
+from certiloop.models.lang.terms import Node
+from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.arith.smtlib import script
+from certiloop.proofs.checker import keys
+from certiloop.proofs.checker.derive import FLOW_TIME, Derivation, Leaf, Rejected
+from certiloop.proofs.checker.flows import NotCheckable
+from certiloop.proofs.checker.keys import Malformed
+
+FORMAT = "certiloop-certificate/1"
+DECIDED = "z3 unsat"  # the one decision procedure of format v1
+RLIMIT = 20_000_000  # z3's resource limit per leaf: a count of its steps, not a clock
+# z3 does not count every step of its quantifier engine: a net against a leaf it never leaves.
+# Reaching it only rejects (never accepts), and no leaf of an accepted library model comes near.
+WALL_NET_MS = 60_000
+# z3 does not always honour its own timeout either: the leaves are decided in a child process,
+# killed when a leaf takes this long (the net's own answer arrives first when z3 honours it)
+KILL_AFTER_S = 75
+ODE_METHODS = ("dI", "dbx", "barrier", "nonzero")
+TOP = {"format", "theorem", "rules", "tree", "leaves"}
+
+
+@dataclass(frozen=True)
+class Outcome:
+    status: str  # accepted | rejected | malformed
+    message: str
+    leaves: tuple[tuple[str, str], ...] = ()  # (id, SMT-LIB text) of the derivation, when it got that far
+
+    @property
+    def exit_code(self) -> int:
+        return {"accepted": 0, "rejected": 1, "malformed": 2}[self.status]
+
+
+def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
+    """Accept, reject (naming the first failing step) or call malformed one certificate."""
+    derived: list[Leaf] = []
+    try:
+        theorem, odes = _read(doc)
+        derived = Derivation(theorem, odes).run()
+        _compare(doc, derived)
+        failed = decide_all([script(leaf.formula) for leaf in derived], rlimit)
+        if failed is not None:
+            leaf = derived[failed[0]]
+            raise Rejected(f"leaf {leaf.id} ({' / '.join(leaf.path)}): {failed[1]}")
+    except Malformed as exc:
+        return Outcome("malformed", f"malformed certificate: {exc}")
+    except NotCheckable as exc:
+        text = str(exc) if "not checkable yet" in str(exc) else f"{exc}: not checkable yet"
+        return Outcome("rejected", f"rejected: {text}")
+    except Rejected as exc:
+        return Outcome("rejected", f"rejected: {exc}", _texts(derived))
+    except (ValueError, TypeError, KeyError, AttributeError, RecursionError) as exc:  # never an acceptance
+        return Outcome("rejected", f"rejected: the checker could not follow the certificate ({exc!r:.200})")
+    name, digest = doc["theorem"]["name"], doc["theorem"]["hash"]
+    # the safety claim, as `prove` reports it; a theorem's non-blocking check is a separate proof
+    besides = "; its non-blocking check is not in the certificate" * theorem.check_nonblocking
+    return Outcome("accepted", f"accepted: {name} ({digest}): assumptions -> [program] guarantee, "
+                   f"{len(derived)} leaves{besides}", _texts(derived))
+
+
+def _texts(leaves: list[Leaf]) -> tuple[tuple[str, str], ...]:
+    return tuple((leaf.id, script(leaf.formula)) for leaf in leaves)
+
+
+def decide_all(texts: list[str], rlimit: int) -> tuple[int, str] | None:
+    """(index, why) of the first leaf z3 does not decide unsat, else None; decided one after
+    the other in one forked child, so a z3 that ignores its limits is stopped."""
+    context = multiprocessing.get_context("fork")
+    mine, theirs = context.Pipe(duplex=False)
+    child = context.Process(target=_decide_each, args=(texts, rlimit, theirs), daemon=True)
+    child.start()
+    theirs.close()
+    try:
+        for i in range(len(texts)):
+            if not mine.poll(KILL_AFTER_S):
+                return i, f"z3 did not answer within {KILL_AFTER_S} s (stopped)"
+            why = mine.recv()
+            if why is not None:
+                return i, why
+        return None
+    except EOFError:
+        return i, "the process deciding it ended without an answer"
+    finally:
+        child.kill()
+        child.join()
+
+
+def _decide_each(texts: list[str], rlimit: int, out) -> None:
+    for text in texts:
+        why = decide(text, rlimit)
+        out.send(why)
+        if why is not None:
+            return
+
+
+def decide(smtlib: str, rlimit: int) -> str | None:
+    """None when z3 finds the script's assertions (the negated leaf) unsatisfiable."""
+    logic = re.search(r"^\(set-logic (\w+)\)", smtlib, re.M)
+    # the script's own logic picks z3's solver for it (QF_NRA: nlsat, complete for real arithmetic)
+    solver = z3.SolverFor(logic.group(1)) if logic and logic.group(1) == "QF_NRA" else z3.Solver()
+    solver.set("rlimit", rlimit)
+    solver.set("timeout", WALL_NET_MS)
+    try:
+        solver.from_string(smtlib)
+    except z3.Z3Exception as exc:
+        return f"z3 cannot read it ({exc})"
+    answer = solver.check()
+    if answer == z3.unsat:
+        return None
+    why = f" (rlimit {rlimit:,}: {solver.reason_unknown()})" if answer == z3.unknown else ""
+    return f"z3 says {answer}, not unsat{why}"
+
+
+# --------------------------------------------------------------------------- reading
+
+
+def _fields(obj: object, names: set[str], where: str) -> dict:
+    if not isinstance(obj, dict) or set(obj) != names:
+        got = sorted(obj) if isinstance(obj, dict) else type(obj).__name__
+        raise Malformed(f"{where} must have exactly the fields {sorted(names)}, got {got}")
+    return obj
+
+
+def _read(doc: object) -> tuple[Theorem, dict[str, tuple[str, object]]]:
+    doc = _fields(doc, TOP, "the certificate")
+    if doc["format"] != FORMAT:
+        raise Malformed(f"format {doc['format']!r} is not {FORMAT!r}")
+    head = _fields(doc["theorem"], {"name", "hash", "canonical"}, "theorem")
+    theorem = keys.theorem(head["canonical"])
+    if theorem.name != head["name"]:
+        raise Rejected(f"theorem: the name {head['name']!r} is not the text's {theorem.name!r}")
+    if hashlib.sha256(head["canonical"].encode()).hexdigest()[:16] != head["hash"]:
+        raise Rejected("theorem: the hash is not the hash of its text")
+    _in_fragment(theorem)
+    if not isinstance(doc["rules"], list):
+        raise Malformed("rules must be a list")
+    return theorem, _rules(theorem.program, doc["rules"])
+
+
+def _in_fragment(t: Theorem) -> None:
+    for what, present in (("ghost", t.ghosts), ("witness", t.witnesses), ("well-defined", t.well_defined),
+                          ("defined-if", t.defined_if)):
+        if present:
+            raise NotCheckable(f"rule {what} not checkable yet")
+    for n in _formulas(t):
+        if bad := _outside(n):
+            raise NotCheckable(f"rule {bad} not checkable yet (in `{n}`)")
+
+
+def _formulas(t: Theorem) -> list[Node]:
+    out = [t.assumptions, t.guarantee]
+
+    def walk(p: Program) -> None:
+        if isinstance(p, Assign):
+            out.extend((p.target, p.value))
+        elif isinstance(p, Havoc):
+            out.append(p.target)
+        elif isinstance(p, Test):
+            out.append(p.cond)
+        elif isinstance(p, Loop) and p.invariant is not None:
+            out.append(p.invariant)
+        elif isinstance(p, ODE):
+            out.extend((p.domain, *(f for _, f in p.eqs), *p.invariants))
+        for q in p.parts if isinstance(p, Seq) else p.alternatives if isinstance(p, Choice) else \
+                (p.body,) if isinstance(p, Loop) else ():
+            walk(q)
+
+    walk(t.program)
+    return out
+
+
+def _outside(n: Node) -> str | None:
+    """The name of a construct the checker does not cover, if n holds one."""
+    if n.op in ("box", "diamond"):
+        return "modality in a formula"
+    if n.op == "ite":
+        return "if-then-else term"
+    return next((bad for a in n.args if (bad := _outside(a))), None)
+
+
+def _rules(p: Program, entries: list) -> dict[str, tuple[str, object]]:
+    """The ODE rules by program address, after checking that entry i names the rule at the
+    i-th program node (pre-order) and its hints."""
+    odes: dict[str, tuple[str, object]] = {}
+    nodes = _nodes(p, "0")
+    if len(entries) != len(nodes):
+        raise Rejected(f"rules: {len(entries)} entries for a program of {len(nodes)} nodes")
+    for entry, (at, q) in zip(entries, nodes):
+        if not isinstance(entry, dict) or "at" not in entry or "rule" not in entry:
+            raise Malformed(f"rules: each entry needs `at` and `rule`, got {entry!r:.80}")
+        if entry["at"] != at:
+            raise Rejected(f"rules: entry at {entry['at']!r} where the program's node {at} comes")
+        kind = type(q).__name__.lower()
+        if isinstance(q, ODE):
+            odes[at] = _ode_rule(entry, q, at)
+        elif isinstance(q, Loop):
+            _fields(entry, {"at", "rule", "invariant"}, f"rule at {at}")
+            shown = None if q.invariant is None else repr(q.invariant.key)
+            if entry["rule"] != "loop" or entry["invariant"] != shown:
+                raise Rejected(f"rules: at {at} the rule is loop with the program's invariant")
+        elif _fields(entry, {"at", "rule"}, f"rule at {at}")["rule"] != kind:
+            raise Rejected(f"rules: at {at} the rule is {kind}, not {entry['rule']!r}")
+    return odes
+
+
+def _nodes(p: Program, at: str) -> list[tuple[str, Program]]:
+    subs = p.parts if isinstance(p, Seq) else p.alternatives if isinstance(p, Choice) else \
+        (p.body,) if isinstance(p, Loop) else ()
+    return [(at, p)] + [x for n, q in enumerate(subs) for x in _nodes(q, f"{at}.{n}")]
+
+
+def _ode_rule(entry: dict, ode: ODE, at: str) -> tuple[str, object]:
+    rule = entry["rule"]
+    if rule == "dW":
+        _fields(entry, {"at", "rule"}, f"rule at {at}")
+        return "dW", None
+    if rule == "solve":
+        solution = _fields(entry, {"at", "rule", "solution"}, f"rule at {at}")["solution"]
+        if not isinstance(solution, dict):
+            raise Malformed(f"rule at {at}: the solution must map each variable to a term's key")
+        terms = {str(v): keys.from_text(text) for v, text in solution.items()}
+        if any(t.sort.name not in ("Real", "Int") or _outside(t) for t in terms.values()):
+            raise Rejected(f"rules: at {at} the solution holds something other than a polynomial term")
+        return "solve", terms
+    if rule == "dC":
+        chain = _fields(entry, {"at", "rule", "chain"}, f"rule at {at}")["chain"]
+        if not isinstance(chain, list):
+            raise Malformed(f"rule at {at}: the chain must be a list")
+        links = []
+        for link in chain:
+            link = _fields(link, {"atom", "method", "cofactor"}, f"a link at {at}")
+            atom = keys.from_text(link["atom"], want_formula=True)
+            cofactor = None if link["cofactor"] is None else keys.from_text(link["cofactor"])
+            if link["method"] not in ODE_METHODS:
+                raise NotCheckable(f"rule {link['method']!r} not checkable yet")
+            if bad := _outside(atom) or (cofactor is not None and _outside(cofactor)):
+                raise NotCheckable(f"rule {bad} not checkable yet (in the chain at {at})")
+            links.append((atom, link["method"], cofactor))
+        return "dC", tuple(links)
+    raise NotCheckable(f"rule ODE {rule!r} not checkable yet")
+
+
+# --------------------------------------------------------------------------- comparing
+
+
+def tree(paths: list[tuple[str, str]]) -> dict:
+    """The proof tree of (leaf id, path) pairs: each step label a node, in order of first use."""
+    root: dict = {"step": "proof", "children": []}
+    for leaf, path in paths:
+        *steps, last = path.split(" / ")
+        node = root
+        for step in steps:
+            found = [c for c in node["children"] if c["step"] == step and "children" in c]
+            if not found:
+                found = [{"step": step, "children": []}]
+                node["children"].append(found[0])
+            node = found[0]
+        node["children"].append({"step": last, "leaf": leaf})
+    return root
+
+
+def _compare(doc: dict, derived: list[Leaf]) -> None:
+    leaves = doc["leaves"]
+    if not isinstance(leaves, list):
+        raise Malformed("leaves must be a list")
+    mine = [(leaf.id, " / ".join(leaf.path)) for leaf in derived]
+    if doc["tree"] != tree(mine):
+        raise Rejected(f"tree: not the proof tree of the theorem with these rules ({len(mine)} leaves)")
+    if len(leaves) != len(derived):
+        raise Rejected(f"leaves: {len(leaves)} recorded, the proof has {len(derived)}")
+    for got, leaf in zip(leaves, derived):
+        got = _fields(got, {"id", "path", "smtlib", "decided"}, "a leaf")
+        where = f"leaf {leaf.id} ({' / '.join(leaf.path)})"
+        if got["id"] != leaf.id or got["path"] != " / ".join(leaf.path):
+            raise Rejected(f"{where}: recorded as {got['id']!r} at {got['path']!r}")
+        if got["smtlib"] != script(leaf.formula):
+            raise Rejected(f"{where}: the recorded formula is not the one this step produces")
+        if got["decided"] != DECIDED:
+            raise NotCheckable(f"decision {got['decided']!r} not checkable yet")
+
+
+__all__ = ["FLOW_TIME", "Outcome", "check", "decide", "tree"]

@@ -1,0 +1,150 @@
+"""Read a theorem and hint formulas back from their text: `repr` of a node's or program's key.
+
+A key is a nested tuple of strings, numbers, None, booleans and `Fraction(n, d)` calls; it is
+parsed by a literal evaluator that admits nothing else (no names, no other calls), and each
+node is rebuilt as written. The rebuilt theorem is then checked by `Theorem` itself (sorts,
+names) and must print back to exactly the text it came from.
+"""
+
+from __future__ import annotations
+
+import ast
+from fractions import Fraction
+
+from certiloop.models.lang.programs import ODE, Assign, Choice, Count, Each, Havoc, Loop, Program, Seq, Test
+from certiloop.models.lang.terms import BOOL, INT, REAL, ModelError, Node, Sort
+from certiloop.models.lang.theorem import Theorem
+
+THEOREM_FORMAT = "certiloop-theorem/1"
+
+
+class Malformed(ValueError):
+    """The certificate cannot be read: exit 2."""
+
+
+def literal(text: str):
+    """The value of a key's text; Malformed for anything but tuples, constants and Fraction(n, d)."""
+    if not isinstance(text, str):
+        raise Malformed(f"expected a key's text, got {type(text).__name__}")
+    try:
+        tree = ast.parse(text, mode="eval").body
+    except SyntaxError as exc:
+        raise Malformed(f"unreadable key text ({exc.msg})") from None
+    return _value(tree)
+
+
+def _value(n: ast.AST):
+    if isinstance(n, ast.Tuple):
+        return tuple(_value(e) for e in n.elts)
+    if isinstance(n, ast.Constant) and (n.value is None or isinstance(n.value, (str, int, bool))):
+        return n.value
+    if isinstance(n, ast.UnaryOp) and isinstance(n.op, ast.USub) and isinstance(n.operand, ast.Constant) \
+            and type(n.operand.value) is int:
+        return -n.operand.value
+    if (isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == "Fraction"
+            and len(n.args) == 2 and not n.keywords):
+        num, den = (_value(a) for a in n.args)
+        if type(num) is int and type(den) is int and den > 0:
+            return Fraction(num, den)
+    raise Malformed(f"unexpected element `{ast.unparse(n)}` in a key's text")
+
+
+def sort(text) -> Sort:
+    if not isinstance(text, str) or not text:
+        raise Malformed(f"bad sort {text!r}")
+    if "→" in text:
+        domain, rng = text.rsplit("→", 1)
+        return Sort("Array", tuple(sort(d) for d in domain.split("×")), sort(rng))
+    return {"Real": REAL, "Int": INT, "Bool": BOOL}.get(text) or Sort(text)
+
+
+def node(key) -> Node:
+    try:
+        op, sort_text, payload, args = key
+    except (TypeError, ValueError):
+        raise Malformed(f"a node's key must be (op, sort, payload, args), got {key!r:.80}") from None
+    if not isinstance(op, str) or not isinstance(args, tuple):
+        raise Malformed(f"bad node key {key!r:.80}")
+    if op in ("forall", "exists"):
+        payload = tuple(node(v) for v in payload)
+    elif op in ("box", "diamond"):
+        payload = program(payload)
+    elif op == "const" and not isinstance(payload, Fraction):
+        raise Malformed(f"a constant's value must be Fraction(n, d), got {payload!r}")
+    return Node(op, tuple(node(a) for a in args), sort(sort_text), payload)
+
+
+def from_text(text: str, want_formula: bool = False) -> Node:
+    """The node whose key's text this is, exactly (another text for the same node is malformed:
+    a certificate holds one spelling of each thing, so any change to it is seen)."""
+    n = formula(literal(text)) if want_formula else node(literal(text))
+    if repr(n.key) != text:
+        raise Malformed(f"the key text {text[:60]!r} is not in canonical form")
+    return n
+
+
+def formula(key) -> Node:
+    n = node(key)
+    if n.sort != BOOL:
+        raise Malformed(f"expected a formula, got the term `{n}`")
+    return n
+
+
+def program(key) -> Program:
+    if not isinstance(key, tuple) or not key or not isinstance(key[0], str):
+        raise Malformed(f"bad program key {key!r:.80}")
+    kind, rest = key[0], key[1:]
+    try:
+        if kind == "assign":
+            return Assign(node(rest[0]), node(rest[1]))
+        if kind == "havoc":
+            return Havoc(node(rest[0]))
+        if kind == "test":
+            return Test(formula(rest[0]))
+        if kind == "seq":
+            return Seq(tuple(program(p) for p in rest[0]))
+        if kind == "choice":
+            return Choice(tuple(program(p) for p in rest[0]), tuple(str(label) for label in rest[1]))
+        if kind == "loop":
+            body, inv, label, each, count = rest
+            return Loop(program(body), None if inv is None else formula(inv), label,
+                        None if each is None else Each(*(node(k) for k in each)),
+                        None if count is None else Count(*(node(k) for k in count)))
+        if kind == "ode":
+            eqs, domain, invariants = rest
+            return ODE(tuple((node(v), node(f)) for v, f in eqs), formula(domain),
+                       tuple(formula(i) for i in invariants))
+    except (TypeError, ValueError, IndexError) as exc:
+        if isinstance(exc, Malformed):
+            raise
+        raise Malformed(f"bad {kind} key ({exc})") from None
+    raise Malformed(f"unknown program kind {kind!r}")
+
+
+def theorem(canonical: str) -> Theorem:
+    """The theorem whose canonical text this is, checked well-formed and printing back the same."""
+    parts = literal(canonical)
+    if not isinstance(parts, tuple) or len(parts) < 11 or parts[0] != THEOREM_FORMAT:
+        raise Malformed(f"the theorem's text is not a {THEOREM_FORMAT} canonical text")
+    _, name, expected, assumptions, prog, guarantee, abbrevs, constants, scenarios, unroll, once = parts[:11]
+    extra = {}
+    for item in parts[11:]:
+        if not (isinstance(item, tuple) and len(item) == 2 and item[0] in
+                ("well_defined", "defined_if", "witnesses", "ghosts")):
+            raise Malformed(f"unknown part {item!r:.60} in the theorem's text")
+        build = node if item[0] == "witnesses" else formula
+        extra[item[0]] = tuple((str(w), build(f)) for w, f in item[1])
+    try:
+        t = Theorem(name=name, assumptions=formula(assumptions), program=program(prog),
+                    guarantee=formula(guarantee), expected=expected,
+                    abbreviations={str(k): node(v) for k, v in abbrevs},
+                    constants=tuple(node(c) for c in constants),
+                    scenarios=tuple(formula(s) for s in scenarios),
+                    unroll=unroll[1], check_nonblocking=once[1], **extra)
+    except (ModelError, TypeError, ValueError, IndexError) as exc:
+        if isinstance(exc, Malformed):
+            raise
+        raise Malformed(f"the theorem's text does not make a theorem: {exc}") from None
+    if t.canonical != canonical:
+        raise Malformed("the theorem's text is not in canonical form (it does not print back the same)")
+    return t
