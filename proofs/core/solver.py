@@ -81,7 +81,7 @@ def check_valid(formula: Node, rlimit: int, wall_s: float = 600.0) -> SolverAnsw
 
 
 # The allocation budget of a check that runs in a child (isolated.py), from its unit budget.
-# Calibrated 2026-11 on every quantified nonlinear check of the library's gate and KeYmaera X's
+# Calibrated on every quantified nonlinear check of the library's gate and KeYmaera X's
 # archives: a finished check allocates about 320,000 times to start and up to 23 times per unit
 # (the largest: 5.7 million allocations for 494,695 units), while a stall allocates up to 250
 # million times a second without spending units. So twice the worst rate seen, plus the start,

@@ -2,7 +2,7 @@
 
 Expanding [a]P or <a>P first (wp.py) and then asking wd.defined of the result loses
 divisions: sympy solves `x' = y/y` as x + s, an assignment that nothing reads vanishes. So
-a red team had `x = 0 & y = 0 -> <{x' = y*(1/y)}> x >= 1` proved, though the flow's speed is
+`x = 0 & y = 0 -> <{x' = y*(1/y)}> x >= 1` would be proved, though the flow's speed is
 0*(1/0). Here a modality is defined where every run of its program evaluates only defined
 terms, each statement in the state it runs in, and its postcondition is defined where each
 run ends: for a diamond too, as wd.defined reads an expanded diamond's `\\exists` (for every

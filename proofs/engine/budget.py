@@ -23,13 +23,13 @@ SCREEN_SHARE = 10
 # A search for a violating run explores a whole unrolled program at once: it gets 6 times
 # an obligation's budget (the library's hardest run, sbs.predictive_multi, needs ~4.7M units
 # under its scenario; sbs.ctrl2_last_wins ~2.7M over a two-boundary family; no run of
-# KeYmaera X's archives more than 3.3M). It was 16 times until 2026-11: a search that finds
-# nothing spends all of it, 56 s on ModelPlex's Approximated Robix Static Safety.
+# KeYmaera X's archives more than 3.3M). More is costly: a search that finds nothing spends all
+# of it (16 times: 56 s on ModelPlex's Approximated Robix Static Safety).
 REFUTE_FACTOR = 6
 # Nonlinear size (proofs/engine/polysize.py: mixed monomials x their degree x coefficient bits,
 # the largest over a formula's comparisons of degree 4 and more) above which a formula is not
 # given to z3: there its rlimit stops counting most of the work (nlsat's projections; a
-# degree-10 barrier in two variables: 42 s for 530,000 units). KeYmaera X's archives, 2026-11:
+# degree-10 barrier in two variables: 42 s for 530,000 units). KeYmaera X's archives:
 # the largest of any proved entry's obligations is 648 (nonlinear.kyx's Ferragut Giacomini
 # Example 1, degree 7); the slow unknown ones are 1,782 to 8,600. The library: at most 480 on
 # proved models (sbs.predictive); sbs.predictive_multi (refuted by a run) has 21 obligations
