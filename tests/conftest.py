@@ -66,7 +66,7 @@ def pytest_sessionfinish(session, exitstatus):
 @pytest.hookimpl(trylast=True)
 def pytest_unconfigure(config):
     """Exit with the session's status once everything is reported, skipping the interpreter's
-    teardown: once (CI, 2026-11-28) the process died of a segmentation fault after printing
+    teardown: once in CI the process died of a segmentation fault after printing
     a clean summary, a known way for z3's native objects to be freed at shutdown (pysmt#522,
     z3#335). Pytester's in-process sessions do not load this file, so they are unaffected."""
     status = config.stash.get(EXIT_STATUS, None)
