@@ -53,6 +53,10 @@ class Sort:
     def __str__(self) -> str:
         return self.text
 
+    def __getstate__(self) -> dict:
+        """A copy of the fields and the cached `text` (see Node.__getstate__)."""
+        return self.__dict__.copy()
+
     @cached_property
     def text(self) -> str:
         """The sort as printed (and in every node's key): computed once per sort."""
@@ -119,6 +123,14 @@ class Node:
     payload: Any = None
 
     # ---- identity
+    def __getstate__(self) -> dict:
+        """A copy of the fields and caches: a process pool pickles a submitted theorem on its
+        feeder thread while this thread may fill a cache (_key, _free); pickling the live
+        __dict__ then failed ("dictionary changed size during iteration", seen with both cores
+        busy). The copy is one step under the GIL; the caches travel, so workers need not
+        recompute them."""
+        return self.__dict__.copy()
+
     @property
     def key(self) -> tuple:
         cached = self.__dict__.get("_key")

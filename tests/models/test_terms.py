@@ -133,3 +133,21 @@ def test_dot_checks_lengths():
 def test_quantifying_over_a_term_is_rejected():
     with pytest.raises(ModelError, match="plain symbol"):
         ForAll(x + 1, x > 0)
+
+
+def test_a_pickled_term_is_a_copy_of_its_fields_and_caches():
+    """A process pool pickles a theorem on another thread while this one fills the terms' caches:
+    a pickle must take a copy of the fields, never iterate the live dict."""
+    import pickle
+
+    from certiloop.models import Reals
+
+    x, y = Reals("x y")
+    f = (x * y + 1 <= 2 * x) & (y >= 0)
+    key = f.key  # fills the cache
+    assert "_key" in f.__dict__
+    state = f.__getstate__()
+    assert state == f.__dict__ and state is not f.__dict__
+    back = pickle.loads(pickle.dumps(f))
+    assert back.key == key and back is not f
+    assert str(back.sort) == str(f.sort) and f.sort.__getstate__() is not f.sort.__dict__
