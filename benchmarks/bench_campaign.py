@@ -28,8 +28,8 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 from common import record
 
+from certiloop.studies.raven.campaign.fault_search import worst_case
 from certiloop.studies.raven.campaign.run import SETUPS, Fault, Scenario, run_campaign, run_setup
-from certiloop.studies.raven.campaign.search import worst_case
 from certiloop.studies.raven.deviation import DeviationMonitor
 from certiloop.studies.sbs.fixture import VirtualFixture
 

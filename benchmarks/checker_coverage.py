@@ -13,7 +13,7 @@ import time
 
 from certiloop.models import library
 from certiloop.proofs.checker import check
-from certiloop.proofs.engine.certify import certificate
+from certiloop.proofs.engine.certificate_writer import certificate
 from certiloop.proofs.engine.prover import Prover
 
 

@@ -10,7 +10,7 @@ from fractions import Fraction
 from html import escape
 
 from certiloop.api.gate_run import GateEntry
-from certiloop.cli.report import hint, label
+from certiloop.cli.proof_table import hint, label
 
 MAX_PLOTS = 8  # variables plotted per counterexample (the ones that change, in name order)
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import xml.etree.ElementTree as ET
 
 from certiloop.api.gate_run import GateEntry
-from certiloop.cli.report import hint, label
+from certiloop.cli.proof_table import hint, label
 
 
 def junit(entries: list[GateEntry], selected: int | None = None) -> str:

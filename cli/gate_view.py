@@ -10,7 +10,7 @@ from rich.table import Table
 
 from certiloop.api.gate_run import GateEntry
 from certiloop.cli import ui
-from certiloop.cli.report import hint, label, verdict_text
+from certiloop.cli.proof_table import hint, label, verdict_text
 
 
 def show_gate(out: Console, entries: list[GateEntry], cross_check: bool, level: int, tail: str) -> None:

@@ -18,7 +18,7 @@ from fractions import Fraction
 from typing import Any
 
 from certiloop.falsify.evaluate import Blocked, NeedValue, Table
-from certiloop.falsify.state import Rejected, get, put, quadratic_points, remove, solve_linear
+from certiloop.falsify.store import Rejected, get, put, quadratic_points, remove, solve_linear
 from certiloop.models.lang.terms import INT, Node
 
 REPAIR_PASSES = 3

@@ -33,8 +33,8 @@ from certiloop.falsify.evaluate import (
 )
 from certiloop.falsify.flows import Flow
 from certiloop.falsify.initial import initial_state
-from certiloop.falsify.state import Rejected, put, remove, solve_linear
-from certiloop.models.kyx.roots import exact_root
+from certiloop.falsify.store import Rejected, put, remove, solve_linear
+from certiloop.models.kyx.square_roots import exact_root
 from certiloop.models.lang.programs import (
     ODE,
     Assign,

@@ -1,7 +1,7 @@
 """Hypothesis-driven search for a run that violates a theorem's guarantee.
 
 A model the batch simulator compiles (reals, families over one index sort; Hoare triples over
-integers and arrays, `batch_ints.py`) is first run in vectorised batches seeded by the
+integers and arrays, `batch/ints.py`) is first run in vectorised batches seeded by the
 search's seed (`batch_search`): thousands of runs per second, a hit reported only after
 the interpreter replayed it. Hypothesis then searches as before.
 

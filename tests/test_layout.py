@@ -97,6 +97,11 @@ def test_models_import_nothing_of_ours_but_models():
         assert all(t.startswith("certiloop.models") for t in targets), module
 
 
+def test_the_language_imports_only_itself():
+    for module, targets in _importers("certiloop.models.lang").items():
+        assert all(t.startswith("certiloop.models.lang") for t in targets), module
+
+
 def test_the_trusted_core_imports_only_the_language_and_itself():
     for module, targets in _importers("certiloop.proofs.core").items():
         bad = [t for t in targets if not t.startswith(("certiloop.models.lang", "certiloop.proofs.core"))]
@@ -155,3 +160,21 @@ def test_no_module_imports_another_modules_private_names():
                 found += [(name, node.module, a.name) for a in node.names
                           if a.name.startswith("_") and not a.name.startswith("__")]
     assert found == []
+
+
+# One file name, one job: the same name in two places only where it is the same job done for a
+# different target (each study's own models, arm or planner; the Python and the C printer of one
+# construct; a package's own error type; interval arithmetic on scalars and on numpy arrays).
+SAME_JOB = {
+    "study.py", "models.py", "demo.py", "arm.py", "planner.py", "builtdr.py", "lyapunov.py", "plots.py",
+    "certified.py", "scalar.py", "errors.py", "intervals.py",
+}
+
+
+def test_no_two_modules_share_a_name_for_different_jobs():
+    seen: dict[str, list[str]] = {}
+    for name, path in _modules().items():
+        if path.name not in ("__init__.py", "__main__.py"):
+            seen.setdefault(path.name, []).append(name)
+    shared = {file: names for file, names in seen.items() if len(names) > 1 and file not in SAME_JOB}
+    assert shared == {}

@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
                    ("--cache", args.cache, "folder"))
     from certiloop.api.loading import load
     from certiloop.cli import ui
-    from certiloop.cli.report import show_result
+    from certiloop.cli.proof_table import show_result
     from certiloop.kernel.extract import extract
     from certiloop.kernel.extract.c.emit import extract_c
     from certiloop.proofs.engine.cache import Cache

@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
     theorems = load_all(args.models, keep_unsupported=True)
 
     from certiloop.cli import ui
-    from certiloop.cli.report import show_unsupported
+    from certiloop.cli.proof_table import show_unsupported
     from certiloop.falsify.report import show_falsification
     from certiloop.models.lang.terms import ModelError
 

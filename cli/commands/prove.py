@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     theorems = load_all(args.models, keep_unsupported=True)  # all bad names fail before any work
 
     from certiloop.cli import ui
-    from certiloop.cli.report import show_result, show_unsupported
+    from certiloop.cli.proof_table import show_result, show_unsupported
     from certiloop.models.lang.terms import ModelError
     from certiloop.proofs.engine.prover import Prover
 
@@ -74,7 +74,7 @@ def run(args: argparse.Namespace) -> int:
                     cross_check(result)
                 show_result(out, result, level)
                 if args.certificate and result.proof is not None:
-                    from certiloop.proofs.engine.certify import write_certificate
+                    from certiloop.proofs.engine.certificate_writer import write_certificate
 
                     write_certificate(*result.proof, Path(args.certificate))
                 results.append(result)

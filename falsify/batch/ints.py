@@ -42,7 +42,7 @@ from certiloop.falsify.choosers import RandomChooser, Recording
 from certiloop.falsify.evaluate import Compiler, Table, index, int_bounds
 from certiloop.falsify.initial import initial_state
 from certiloop.falsify.interpreter import LOOP_BOUND, Interpreter, index_sorts, outer_loop
-from certiloop.falsify.state import Rejected
+from certiloop.falsify.store import Rejected
 from certiloop.falsify.vectorise import Unsupported
 from certiloop.models.lang.programs import (
     ODE,

@@ -10,7 +10,7 @@ replay rejects (it blocks where the floats went on, or ends without a violation)
 one only floating point shows violating, deeper than the search's tolerance, is kept as an
 unconfirmed candidate (so reported, never as a counterexample) while the search goes on.
 A model with families runs each round's runs split over the family sizes of the search's
-range, one batch per size (`_split`); a Hoare triple over integers (`batch_ints.py`) splits
+range, one batch per size (`_split`); a Hoare triple over integers (`batch/ints.py`) splits
 them the same way over group slots, each batch with integer constants of its own.
 """
 
@@ -28,7 +28,7 @@ from certiloop.falsify.depth import FLOAT_ONLY, float_only, is_deep
 from certiloop.falsify.evaluate import Blocked, Compiler, NeedValue, Table
 from certiloop.falsify.flows import Inexact
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
-from certiloop.falsify.state import solve_linear
+from certiloop.falsify.store import solve_linear
 from certiloop.falsify.vectorise import Unsupported, conjuncts, read_order
 from certiloop.models.lang.theorem import Theorem
 

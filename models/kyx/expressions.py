@@ -9,9 +9,15 @@ from typing import Any
 
 from lark import Token, Tree
 
+from certiloop.models.kyx.archive import BUILTINS, KyxError, Scope, place
 from certiloop.models.kyx.lifting import NotDifferentiable, moves, rate
-from certiloop.models.kyx.roots import NotPolynomialInRoot, exact_root, never_negative, number, without_root
-from certiloop.models.kyx.syntax import BUILTINS, KyxError, Scope, place
+from certiloop.models.kyx.square_roots import (
+    NotPolynomialInRoot,
+    exact_root,
+    never_negative,
+    number,
+    without_root,
+)
 from certiloop.models.lang.nesting import divides
 from certiloop.models.lang.programs import (
     ODE,

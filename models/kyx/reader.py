@@ -31,15 +31,15 @@ from pathlib import Path
 
 from lark import Token, Tree
 
-from certiloop.models.kyx.expressions import Builder
-from certiloop.models.kyx.slicing import one_entry
-from certiloop.models.kyx.syntax import (
+from certiloop.models.kyx.archive import (
     KyxError,
     Scope,
     declarations,
     parse_tree,
     place,
 )
+from certiloop.models.kyx.expressions import Builder
+from certiloop.models.kyx.slicing import one_entry
 from certiloop.models.lang.nesting import divides, loop_nesting_problem, modal_domains, tests_have_loops
 from certiloop.models.lang.programs import (
     ODE,

@@ -25,7 +25,7 @@ from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.arith.smtlib import script
 from certiloop.proofs.checker import keys
 from certiloop.proofs.checker.derive import FLOW_TIME, Derivation, Leaf, Rejected
-from certiloop.proofs.checker.flows import NotCheckable
+from certiloop.proofs.checker.ode_facts import NotCheckable
 from certiloop.proofs.checker.keys import Malformed
 
 FORMAT = "certiloop-certificate/1"

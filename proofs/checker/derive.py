@@ -25,7 +25,7 @@ from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Pro
 from certiloop.models.lang.terms import REAL, And, Implies, Node, Var, store, substitute
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.checker.defined import defined, divides
-from certiloop.proofs.checker.flows import NotCheckable, check_solution, premise, runs_along
+from certiloop.proofs.checker.ode_facts import NotCheckable, check_solution, premise, runs_along
 
 FLOW_TIME = Var("s@flow")  # the time variable of a recorded solution
 

@@ -298,7 +298,7 @@ class Prover:
         obligation's model or, when the theorem has no obligations, at a small state
         (refute/negation.py), else None."""
         from certiloop.proofs.refute.negation import candidates, negation_at, small_states
-        from certiloop.proofs.refute.search import Refutation
+        from certiloop.proofs.refute.unroll import Refutation
 
         models = [r.raw_model for r in results if r.raw_model is not None and r.kind == "safety"]
         states = small_states(theorem) if no_obligations is not None else candidates(theorem, models)

@@ -1,5 +1,5 @@
 """Refutation: searching for a concrete run that violates a theorem's guarantee."""
 
-from certiloop.proofs.refute.search import Refutation, Replay, Step, refute
+from certiloop.proofs.refute.unroll import Refutation, Replay, Step, refute
 
 __all__ = ["Refutation", "Replay", "Step", "refute"]

@@ -18,7 +18,7 @@ from certiloop.proofs.core.verdicts import judge
 from certiloop.proofs.core.wp import expand_modalities, unroll
 from certiloop.proofs.engine.budget import Budget
 from certiloop.proofs.refute.bmc import Encoder
-from certiloop.proofs.refute.search import Refutation, Replay, index_sort, search_family
+from certiloop.proofs.refute.unroll import Refutation, Replay, index_sort, search_family
 
 INNER_DEPTH = 2  # iterations of inner loops the witness may take (small families suffice)
 

@@ -28,7 +28,7 @@ SOURCES = ("sbs_ctrl2.c", "sbs_ctrl2_fixture.c", "sbs_ctrl2_fixture_calls.c")
 HEADERS = ("sbs_ctrl2.h", "sbs_ctrl2_fixture.h", "sbs_ctrl2_fixture_calls.h")
 KERNEL_C = Path(__file__).resolve().parent / "generated" / "c"  # sbs_ctrl2.[ch], extracted from sbs.ctrl2
 FIXTURE_C = Path(__file__).resolve().parent / "native_c"  # the hand-written fixture step around it
-# the project's C flags (kernel.extract.c_syntax.CFLAGS; a test keeps the two equal)
+# the project's C flags (kernel.extract.c.syntax.CFLAGS; a test keeps the two equal)
 FLAGS = ["-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2", "-ffp-contract=off"]
 
 OK, UNDECIDED = 0, 9  # enum sbs_ctrl2_reason in sbs_ctrl2_fixture.h

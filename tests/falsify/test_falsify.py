@@ -17,7 +17,7 @@ from certiloop.models.lang.programs import test as check
 from certiloop.models.lang.terms import And, Reals
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.engine import Budget
-from certiloop.proofs.refute.search import refute
+from certiloop.proofs.refute.unroll import refute
 
 REFUTED = [n for n in library.names() if library.get(n).expected == "refuted"]
 PROVED_SBS = ["sbs.ctrl1", "sbs.predictive", "sbs.ctrl2_2d", "sbs.ctrl2"]

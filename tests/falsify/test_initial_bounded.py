@@ -7,7 +7,7 @@ from __future__ import annotations
 from certiloop.falsify.choosers import RandomChooser
 from certiloop.falsify.initial import initial_state
 from certiloop.falsify.interpreter import Interpreter, Run
-from certiloop.falsify.state import Rejected
+from certiloop.falsify.store import Rejected
 from certiloop.models import library
 
 

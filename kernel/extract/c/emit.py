@@ -16,7 +16,7 @@ content hash (`SBS_CTRL2_MODEL_HASH`).
 Decisions are float-sound (c_certified): wherever C decides, the decision is the model's in
 the reals, so the float-sound Python kernel's; where the Python kernel's float pass decides
 alone, C runs the same filter and its outputs are the Python's bit for bit. Compile with
-`-ffp-contract=off` (c_syntax.CFLAGS): the bounds assume one rounding per operation."""
+`-ffp-contract=off` (c/syntax.py, CFLAGS): the bounds assume one rounding per operation."""
 
 from __future__ import annotations
 

@@ -91,7 +91,7 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         options.need_matplotlib()
     from certiloop.cli import ui
-    from certiloop.studies.raven.campaign.report import show_campaign, summary, write_campaign_csv
+    from certiloop.studies.raven.campaign.outputs import show_campaign, summary, write_campaign_csv
     from certiloop.studies.raven.campaign.run import run_setup
 
     out = options.console(stderr=args.json == "-")
@@ -136,8 +136,8 @@ def search(args: argparse.Namespace, setup, kinds: tuple) -> int:
         raise BadInput(f"--ticks must be at least 400, got {ticks}")
     options.check_outputs(("--json", args.json, "file or -"))
     from certiloop.cli import ui
-    from certiloop.studies.raven.campaign.report import search_summary, show_search
-    from certiloop.studies.raven.campaign.search import worst_case
+    from certiloop.studies.raven.campaign.fault_search import worst_case
+    from certiloop.studies.raven.campaign.outputs import search_summary, show_search
 
     out = options.console(stderr=args.json == "-")
     start = time.perf_counter()

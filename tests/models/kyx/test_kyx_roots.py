@@ -1,4 +1,4 @@
-"""Square roots in kyx archives (models/kyx/roots.py and the reader's pinned roots).
+"""Square roots in kyx archives (models/kyx/square_roots.py and the reader's pinned roots).
 
 The algebra is checked by z3 against the definition of the root (s >= 0, s^2 = e), an
 independent statement of what a root is; each end-to-end verdict is checked by evaluating
@@ -16,7 +16,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from certiloop.models.kyx import read_entries, to_kyx
-from certiloop.models.kyx.roots import exact_root, never_negative, sign_condition, split
+from certiloop.models.kyx.square_roots import exact_root, never_negative, sign_condition, split
 from certiloop.models.lang.terms import And, Iff, Implies, ModelError, Real, cmp, const
 from certiloop.proofs.core.solver import check_here
 from certiloop.proofs.engine import Prover

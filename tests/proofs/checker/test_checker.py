@@ -13,7 +13,7 @@ from certiloop.models.lang.theorem import Theorem
 from certiloop.models.library import textbook
 from certiloop.proofs.arith.smtlib import script
 from certiloop.proofs.checker import check, check_file
-from certiloop.proofs.engine.certify import certificate
+from certiloop.proofs.engine.certificate_writer import certificate
 
 x, y, v, a = Reals("x y v a")
 

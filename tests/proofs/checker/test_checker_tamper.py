@@ -13,7 +13,7 @@ from certiloop.models import library
 from certiloop.models.lang.programs import Loop, Seq
 from certiloop.models.library import textbook
 from certiloop.proofs.checker import check
-from certiloop.proofs.engine.certify import certificate
+from certiloop.proofs.engine.certificate_writer import certificate
 
 # the first three are used by name below; the train divides by a term (well-definedness leaves),
 # builtDR quantifies over integer-indexed arrays

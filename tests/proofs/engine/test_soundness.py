@@ -16,7 +16,7 @@ from certiloop.proofs.core.exact import truth
 from certiloop.proofs.core.vcgen import generate
 from certiloop.proofs.engine import Budget
 from certiloop.proofs.engine.prover import Prover, discharge_one
-from certiloop.proofs.refute.search import refute
+from certiloop.proofs.refute.unroll import refute
 
 # Models small enough to discharge every obligation at full strength in the test suite; the
 # 144-branch ctrl2 family is covered by its exactly re-checked refutation runs instead.

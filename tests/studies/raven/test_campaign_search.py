@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from certiloop.cli.main import main
+from certiloop.studies.raven.campaign.fault_search import replay_fault, worst_case
 from certiloop.studies.raven.campaign.plots import roc_points
 from certiloop.studies.raven.campaign.run import SETUPS, Fault, run_campaign, run_setup
-from certiloop.studies.raven.campaign.search import replay_fault, worst_case
 
 
 def test_rows_do_not_depend_on_the_executor_or_the_batch_size():
@@ -72,7 +72,7 @@ sys.path.insert(0, sys.argv[1])
 for name in sys.argv[2:]:
     importlib.import_module(name)
 from certiloop.studies.raven.campaign.run import SETUPS
-from certiloop.studies.raven.campaign.search import worst_case
+from certiloop.studies.raven.campaign.fault_search import worst_case
 r = worst_case(SETUPS["raven.no_margin"], kinds=("jump", "drift"), max_examples=100, seed=3)
 print(r.fault, r.found_after)
 """

@@ -12,7 +12,7 @@ from certiloop.proofs.core.interval import Interval
 from certiloop.proofs.core.vcgen import generate
 from certiloop.proofs.engine import Budget
 from certiloop.proofs.engine.prover import Prover, discharge_one
-from certiloop.proofs.refute.search import refute
+from certiloop.proofs.refute.unroll import refute
 
 
 @pytest.fixture(scope="module")

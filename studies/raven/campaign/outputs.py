@@ -119,6 +119,6 @@ def show_search(out: Console, doc: dict, seconds: float = 0.0) -> None:
     ui.say(out, f"crossing fault: {c['kind']} on the {c['stream']} stream, ticks [{c['start']}, "
                 f"{c['start'] + c['duration']}), magnitude {c['magnitude']:g}; min distance "
                 f"{1000 * c['min_distance']:.3f} mm; replay it: "
-                f"certiloop.studies.raven.campaign.search.replay_fault("
+                f"certiloop.studies.raven.campaign.fault_search.replay_fault("
                 f"SETUPS[{doc['scenario']!r}], Fault({c['kind']!r}, {c['stream']!r}, {c['start']}, "
                 f"{c['duration']}, {c['magnitude']!r}), seed={doc['seed']})")
