@@ -180,19 +180,20 @@ def _start_server(ctx) -> None:
             os.environ["PYTHONPATH"] = old
 
 
-def run_all(module: str, cases: list[Case]) -> dict[str, dict[str, Any]]:
-    """Outcomes of every case of a theme module, each in its own process (so a hang or a
+def run_all(module: str, cases: list[Case], only: set[str] | None = None) -> dict[str, dict[str, Any]]:
+    """Outcomes of every case of a theme module (or of those whose id is in `only`), each in its own process (so a hang or a
     crash of one cannot take the others down), SOUNDNESS_JOBS (default: cores) at once.
 
     The processes are forked from a forkserver that has imported the engine once (fast,
     and safe even if this pytest process runs threads). SOUNDNESS_INPROCESS=1 runs the
     cases here, one after the other (for debugging)."""
     if os.environ.get("SOUNDNESS_INPROCESS"):
-        return {c.id: outcome_of(c) for c in cases}
+        return {c.id: outcome_of(c) for c in cases if only is None or c.id in only}
     jobs = max(1, int(os.environ.get("SOUNDNESS_JOBS", str(os.cpu_count() or 1))))
     ctx = multiprocessing.get_context("forkserver")
     _start_server(ctx)
-    pending = list(enumerate(cases))
+    # the index is the case's place in the module's CASES: the child looks it up there
+    pending = [(k, c) for k, c in enumerate(cases) if only is None or c.id in only]
     running: dict[int, tuple[Any, Any, float]] = {}
     out: dict[str, dict[str, Any]] = {}
 

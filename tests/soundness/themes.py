@@ -12,8 +12,12 @@ def theme_tests(module, theme: str):
     ids = [c.id for c in cases]
 
     @pytest.fixture(scope="module")
-    def outcomes():
-        return run_all(module.__name__, cases)
+    def outcomes(request):
+        # only the cases this run selected: the quick tier and `-m slow` each take their share
+        selected = {item.callspec.params["case"].id for item in request.session.items
+                    if item.module is request.module and item.originalname == "test_engine_outcome_allowed"
+                    and not item.get_closest_marker("skip")}
+        return run_all(module.__name__, cases, only=selected)
 
     @pytest.mark.parametrize("case", cases, ids=ids)
     def test_witness_confirms_label(case: Case):
