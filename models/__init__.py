@@ -23,6 +23,7 @@ from certiloop.models.lang.programs import (
     skip,
     test,
 )
+from certiloop.models.lang.roles import Roles
 from certiloop.models.lang.terms import (
     BOOL,
     FALSE,

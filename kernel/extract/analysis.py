@@ -7,8 +7,9 @@ index sorts, and the choice of plant modes rewritten as a choice of rate assignm
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+from certiloop.kernel.extract import roles as declared
 from certiloop.kernel.extract.errors import ExtractError, brief, refuse
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars
@@ -111,6 +112,10 @@ class Step:
     plant: Program | None  # the ODE, the choice of modes, or None
     reads: set[str]  # what the plant, the loop invariant and the guarantee read
     plant_reads: set[str]  # what the plant alone reads
+    # with declared roles (theorem.roles): the environment's statements (its `x := *` and the
+    # tests on them), out of the step; and what the plant's mode initialisation sets
+    environment: list[Program] = field(default_factory=list)
+    plant_init: set[str] = field(default_factory=set)
 
 
 def _has_ode(p: Program) -> bool:
@@ -133,12 +138,25 @@ def _is_modes(p: Program) -> bool:
 
 
 def split(theorem: Theorem) -> Step:
+    """The control step; with declared roles, the controller's part of it (`roles`)."""
+    if theorem.roles is None:
+        return _split(theorem)
+    declared.check_declaration(theorem)
+    step = _split(theorem)
+    declared.check_chosen(theorem, step.environment)
+    return step
+
+
+def _split(theorem: Theorem) -> Step:
     p = theorem.program
     guarantee = set(free_vars(theorem.guarantee))
     if not _has_ode(p):
         if isinstance(p, Loop):
             raise refuse(p, "a loop with no plant and no exit test repeats any number of times: there is "
                           "no control step or algorithm result to extract")
+        if theorem.roles is not None:
+            parts, environment = declared.separate(theorem, seq_parts(p))
+            return Step(parts, "algorithm", None, guarantee, set(), environment)
         return Step(seq_parts(p), "algorithm", None, guarantee, set())
     if not isinstance(p, Loop):
         raise ExtractError(f"cannot extract `{brief(p)}`: the program has a plant ODE but is not a control "
@@ -157,6 +175,11 @@ def split(theorem: Theorem) -> Step:
     if any(_has_ode(q) for q in before + after):
         second = next(q for q in before + after if _has_ode(q))
         raise refuse(second, "a second plant ODE in the control loop")
+    environment: list[Program] = []
+    if theorem.roles is not None:  # the environment's choices leave the step
+        before, env_before = declared.separate(theorem, before)
+        after, env_after = declared.separate(theorem, after)
+        environment = env_before + env_after
     if isinstance(plant, ODE):
         # the plant's initialisation (clock resets t := 0) right before the ODE belongs to it
         flows = {v.payload for v in plant.variables}
@@ -172,6 +195,11 @@ def split(theorem: Theorem) -> Step:
     if _is_modes(plant):
         if after:
             raise refuse(after[0], "statements after a choice of plant modes")
+        if theorem.roles is not None:  # the controller picks a mode and sets the controls
+            modes, init = declared.switched_controller(theorem, plant)
+            odes = [seq_parts(alt)[-1] for alt in plant.alternatives]
+            flow_reads = set().union(*(reads_of(ode) | {v.payload for v in ode.variables} for ode in odes))
+            return Step([*before, modes], "switched", plant, reads, flow_reads, environment, init)
         return Step(before, "modes", plant, reads, plant_reads)
     if before and after:
         raise refuse(after[0], "discrete statements both before and after the plant ODE: which state the "
@@ -179,14 +207,16 @@ def split(theorem: Theorem) -> Step:
     if not before and not after:
         raise ExtractError(f"cannot extract `{brief(p)}`: the control loop has no discrete step, only the "
                            "plant")
-    return Step(before or after, "before" if before else "after", plant, reads, plant_reads)
+    return Step(before or after, "before" if before else "after", plant, reads, plant_reads, environment)
 
 
 def step_outputs(theorem: Theorem, step: Step, assigned: list[str], inputs: list[str],
-             tested: set[str]) -> list[str]:
+             tested: set[str], latches: set[str] = frozenset()) -> list[str]:
     """What the step computes that the plant reads, then what only the invariant or the
     guarantee read; failing that, the commands it admits (inputs the plant reads and a
-    test checks)."""
+    test checks). With declared roles: exactly the declared controls."""
+    if theorem.roles is not None:
+        return declared.checked_outputs(theorem, step.plant_reads, step.plant_init, assigned, inputs, latches)
     outputs = [v for v in assigned if v in step.plant_reads]
     outputs += [v for v in assigned if v in step.reads and v not in outputs]
     if not outputs:

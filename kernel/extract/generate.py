@@ -30,7 +30,7 @@ def _extract(theorem: Theorem) -> str:
     try:
         step = split(theorem)
         if uses_families(step.parts) and not families_only_tested(step.parts):
-            if step.where in ("modes", "algorithm"):
+            if step.where in ("modes", "switched", "algorithm"):
                 raise ExtractError("a family of boundaries in a switched plant or an algorithm is not "
                                    "vectorised")
             return vectorised_source(theorem, step)

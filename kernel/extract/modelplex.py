@@ -65,6 +65,7 @@ from certiloop.kernel.extract.analysis import (
 )
 from certiloop.kernel.extract.errors import ExtractError, brief
 from certiloop.kernel.extract.generate import extract
+from certiloop.kernel.extract.modelplex_environment import environment_monitor
 from certiloop.kernel.extract.modelplex_family import family_controller_monitor
 from certiloop.kernel.extract.monitor_terms import (
     MonitorError,
@@ -87,7 +88,7 @@ ModelPlex-style monitors of `{model}` ({description}), generated from the model'
       `state` (keys STATE) ends with `command` (keys COMMAND; reals within tol);
   plant_monitor(prev_state, next_state, dt, tol) -> bool: the observed evolution fits the
       plant ODE: domain at both ends, {plant_how}.
-"""
+{environment_doc}"""
 
 import math
 import types
@@ -100,7 +101,11 @@ STATE = {state!r}
 COMMAND = {command!r}
 PLANT_STATE = {plant_state!r}  # evolved variables (plant_monitor)
 PLANT_PARAMS = {plant_params!r}  # values the plant reads that it does not evolve
-'''
+{environment_header}'''
+
+ENVIRONMENT_DOC = """  environment_monitor(state) -> bool: the environment's values in `state` (keys
+      ENVIRONMENT_STATE) satisfy the model's assumptions about them (ENVIRONMENT_ASSUMPTIONS).
+"""
 
 
 def monitors(theorem: Theorem) -> str:
@@ -117,6 +122,9 @@ def _monitors(theorem: Theorem) -> str:
         src_controller = extract(theorem)
         state, command, ctrl_code = _controller_monitor(theorem, step, src_controller)
         plant_state, plant_params, plant_code, plant_how = _plant_monitor(theorem, step)
+        env_header, env_code = "", ""
+        if theorem.roles is not None:
+            _, env_header, env_code = environment_monitor(theorem, step)
     except ModelError as exc:  # ExtractError, MonitorError: one line that names the model
         message = " ".join(str(exc).split())
         if not message.startswith(f"{theorem.name}:"):
@@ -124,9 +132,11 @@ def _monitors(theorem: Theorem) -> str:
         raise (MonitorError if isinstance(exc, MonitorError) else ExtractError)(message) from None
     src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
                         state=state, command=command, plant_state=plant_state, plant_params=plant_params,
-                        plant_how=plant_how)
-    runtime = RUNTIME + (_decide_runtime() if "_decide." in ctrl_code else "")
-    return src + "\n" + ctrl_code + "\n" + plant_code + "\n" + runtime
+                        plant_how=plant_how, environment_doc=ENVIRONMENT_DOC if env_code else "",
+                        environment_header=env_header)
+    runtime = RUNTIME + (_decide_runtime() if "_decide." in ctrl_code + env_code else "")
+    env_code = env_code and env_code + "\n"
+    return src + "\n" + ctrl_code + "\n" + env_code + plant_code + "\n" + runtime
 
 
 def _decide_runtime() -> str:
@@ -174,7 +184,7 @@ def _scalar_outputs(theorem: Theorem, step: Step) -> tuple[list[Program], list[s
         live |= latches
         py = Python(symbols, live, Seq(tuple(parts)))
         py.block(parts)
-    outputs = step_outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
+    outputs = step_outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested, latches)
     outputs += [v for v in py.assigned if v in latches and v not in outputs]
     return parts, outputs, symbols
 
@@ -362,6 +372,13 @@ def _plant_modes(theorem: Theorem, step: Step) -> list[tuple[list[Assign], ODE]]
     for alt in step.plant.alternatives:
         parts = seq_parts(alt)
         pre = parts[:-1]
+        if step.where == "switched":  # the controller's statements are its; the plant's: clock resets
+            flows = {v.payload for v in parts[-1].variables}
+            k = len(pre)
+            while k and isinstance(pre[k - 1], Assign) and pre[k - 1].target.op == "var" \
+                    and pre[k - 1].target.payload in flows:
+                k -= 1
+            pre = pre[k:]
         if any(not (isinstance(q, Assign) and q.target.op == "var") for q in pre):
             raise MonitorError(f"the plant mode `{brief(alt)}` does more than initialise its ODE")
         modes.append((list(pre), parts[-1]))

@@ -134,6 +134,10 @@ def renamed(theorem: Theorem, mapping: dict[str, str]) -> Theorem:
                    guarantee=term(theorem.guarantee))
     changes["abbreviations"] = {mapping.get(k, k): term(v) for k, v in theorem.abbreviations.items()}
     changes["constants"] = tuple(term(c) for c in theorem.constants)
+    if theorem.roles is not None:
+        roles = theorem.roles
+        changes["roles"] = replace(roles, environment=tuple(term(v) for v in roles.environment),
+                                   controls=tuple(term(v) for v in roles.controls))
     # proof hints and the refuter's scenarios do not reach the generated code
     changes.update(scenarios=(), well_defined=(), defined_if=(), witnesses=(), ghosts=())
     return replace(theorem, **changes)

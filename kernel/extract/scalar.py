@@ -520,7 +520,7 @@ def python(theorem: Theorem, step: "Step") -> str:
         both = sorted(py.pinned & set(py.inputs))
         raise ExtractError(f"`{both[0]} := *` is pinned by an equation on some paths and read as an input "
                            "on others; cannot extract")
-    outputs = rates or step_outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested)
+    outputs = rates or step_outputs(theorem, step, list(py.assigned), list(py.inputs), py.tested, latches)
     outputs += [v for v in py.assigned if v in latches and v not in outputs]
     params = list(py.params)
     check_names(theorem, [*params, *py.assigned])

@@ -41,6 +41,9 @@ SCALAR = {
               "model's order, whose domain holds in the given state. The model may switch modes at\n"
               "any time, so this is a continuous controller: evaluate it at the rate the plant needs.\n"
               + LABELS),
+    "switched": ("as plain scalar Python: the controller picks a plant mode whose evolution domain holds\n"
+                 "in the given state (the first in the model's order) and returns the controls it sets. The\n"
+                 "model may switch modes at any time: evaluate it at the rate the plant needs. " + LABELS),
     "algorithm": ("as plain Python loops over numpy arrays (the model is a Hoare triple with no plant).\n"
                   + LABELS),
 }

@@ -21,6 +21,7 @@ from certiloop.models.lang.programs import (
     program_symbols,
     written,
 )
+from certiloop.models.lang.roles import Roles, check_roles
 from certiloop.models.lang.terms import (
     BOOL,
     INT,
@@ -74,6 +75,10 @@ class Theorem:
         (after the earlier facts) and then assumes the fact; sound because the name is
         fresh: the assumptions, the guarantee and the program's statements do not mention it
         (its invariants may; they are hints too).
+    roles: who chooses what, for extraction: `Roles(environment=(al,), controls=(a,))` — the
+        values the environment picks and the controller senses, and the values the controller
+        computes (its outputs); every other symbol is state. Not part of the logical claim, but
+        part of the canonical text (the extracted code's interface depends on it).
     """
 
     name: str
@@ -98,6 +103,8 @@ class Theorem:
     witnesses: tuple[tuple[str, Node], ...] = ()
     # Proof hints: fresh constants, each with a fact the core proves satisfiable first
     ghosts: tuple[tuple[str, Node], ...] = ()
+    # Extraction: the environment's and the controller's variables (None: not declared)
+    roles: Roles | None = None
 
     def __post_init__(self) -> None:
         if self.expected not in VERDICTS:
@@ -132,6 +139,7 @@ class Theorem:
             conditions += (("defined_if", tuple((w, f.key) for w, f in self.defined_if)),)
         conditions += (("witnesses", tuple((v, t.key) for v, t in self.witnesses)),) if self.witnesses else ()
         conditions += (("ghosts", tuple((v, f.key) for v, f in self.ghosts)),) if self.ghosts else ()
+        conditions += (("roles", self.roles.key),) if self.roles is not None else ()
         return repr((
             "certiloop-theorem/1", self.name, self.expected, self.assumptions.key, self.program.key,
             self.guarantee.key, tuple(sorted((k, v.key) for k, v in self.abbreviations.items())),
@@ -338,6 +346,8 @@ def check_well_formed(t: Theorem) -> None:
     for c in t.constants:
         if not isinstance(c, Node) or c.op != "var":
             raise ModelError(f"{where}: constants must be symbols, got `{c}`")
+    if t.roles is not None:
+        check_roles(t.roles, where)
     _check_names_and_sorts(t, where)
     _check_ghosts(t, where)
     _check_term_sorts(t, where)

@@ -12,6 +12,7 @@ import ast
 from fractions import Fraction
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Count, Each, Havoc, Loop, Program, Seq, Test
+from certiloop.models.lang.roles import Roles
 from certiloop.models.lang.terms import BOOL, INT, REAL, ModelError, Node, Sort
 from certiloop.models.lang.theorem import Theorem
 
@@ -130,8 +131,11 @@ def theorem(canonical: str) -> Theorem:
     extra = {}
     for item in parts[11:]:
         if not (isinstance(item, tuple) and len(item) == 2 and item[0] in
-                ("well_defined", "defined_if", "witnesses", "ghosts")):
+                ("well_defined", "defined_if", "witnesses", "ghosts", "roles")):
             raise Malformed(f"unknown part {item!r:.60} in the theorem's text")
+        if item[0] == "roles":
+            extra["roles"] = _roles(item[1])
+            continue
         build = node if item[0] == "witnesses" else formula
         extra[item[0]] = tuple((str(w), build(f)) for w, f in item[1])
     try:
@@ -148,3 +152,10 @@ def theorem(canonical: str) -> Theorem:
     if t.canonical != canonical:
         raise Malformed("the theorem's text is not in canonical form (it does not print back the same)")
     return t
+
+
+def _roles(value) -> Roles:
+    """The roles part: (environment symbols' keys, control symbols' keys)."""
+    if not (isinstance(value, tuple) and len(value) == 2 and all(isinstance(v, tuple) for v in value)):
+        raise Malformed(f"bad roles part {value!r:.60}")
+    return Roles(environment=tuple(node(k) for k in value[0]), controls=tuple(node(k) for k in value[1]))

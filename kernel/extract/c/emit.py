@@ -60,7 +60,7 @@ def _extract_c(theorem: Theorem) -> dict[str, str]:
     families: dict = {}
     tail: list[str] = []
     if uses_families(step.parts):
-        if step.where in ("modes", "algorithm"):
+        if step.where in ("modes", "switched", "algorithm"):
             raise ExtractError("a family of boundaries in a switched plant or an algorithm is not vectorised")
         from certiloop.kernel.extract.c.family import c_family, pinned_output
 
