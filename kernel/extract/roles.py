@@ -15,7 +15,7 @@ Without a declaration none of this runs: the extraction is what it always was.""
 
 from __future__ import annotations
 
-from certiloop.kernel.extract.errors import ExtractError, brief, refuse
+from certiloop.kernel.extract.errors import ExtractError, refuse
 from certiloop.models.lang.programs import (
     ODE,
     Assign,
@@ -24,6 +24,7 @@ from certiloop.models.lang.programs import (
     Program,
     Seq,
     Test,
+    children,
     program_symbols,
     written,
 )
@@ -37,6 +38,12 @@ def _conjuncts(f: Node) -> list[Node]:
 
 def _flat(parts: list[Program]) -> list[Program]:
     return [r for q in parts for r in (_flat(list(q.parts)) if isinstance(q, Seq) else [q])]
+
+
+def _havocs(p: Program) -> set[str]:
+    if isinstance(p, Havoc):
+        return {p.target.payload} if p.target.op == "var" else set()
+    return set().union(*(_havocs(q) for q in children(p)))
 
 
 def _first(names: set[str]) -> str:
@@ -99,6 +106,12 @@ def separate(theorem: Theorem, parts: list[Program]) -> tuple[list[Program], lis
                 controller.append(Test(And(*kept)) if len(kept) > 1 else Test(kept[0]))
             continue
         wrote = set(written(q)) & env
+        nested = _havocs(q) & env
+        if nested:
+            name = _first(nested)
+            raise refuse(q, f"the environment's `{name} := *` is inside a statement of the controller; make "
+                         f"the environment's choice a statement of its own at the top of the step "
+                         f"(`{name} := *; ?...`)")
         if wrote:
             name = _first(wrote)
             raise refuse(q, f"the controller sets the environment's `{name}`; only the environment chooses "
@@ -115,9 +128,9 @@ def check_chosen(theorem: Theorem, environment: list[Program]) -> None:
     chosen = {q.target.payload for q in environment if isinstance(q, Havoc)}
     for name in theorem.roles.environment_names:
         if name not in chosen:
-            raise ExtractError(f"{theorem.name}: roles name `{name}` the environment's, but the control "
-                               f"step never chooses it (`{name} := *`); it is state the controller reads: "
-                               "remove it from environment")
+            raise ExtractError(f"{theorem.name}: roles name `{name}` in environment, but the control step "
+                               f"never chooses it (`{name} := *`); it is state the controller reads: remove "
+                               "it from environment")
 
 
 def switched_controller(theorem: Theorem, plant: Choice) -> tuple[Choice, set[str]]:
@@ -152,8 +165,13 @@ def checked_outputs(theorem: Theorem, plant_reads: set[str], plant_init: set[str
     controls = list(theorem.roles.control_names)
     for name in controls:
         if name not in assigned and name not in inputs:
-            raise ExtractError(f"{theorem.name}: roles name `{name}` a control, but the control step never "
+            raise ExtractError(f"{theorem.name}: roles name `{name}` in controls, but the control step never "
                                f"sets it; set it in the step (`{name} := ...`) or remove it from controls")
+    for name in inputs:  # `x := *` in the step that nothing pins down: a choice nobody declared
+        if name not in controls and name in plant_reads:
+            raise ExtractError(f"{theorem.name}: the control step chooses `{name} := *`, which the plant "
+                               f"reads, but roles do not say who chooses it; add `{name}` to environment "
+                               "(the world chooses it) or to controls")
     for name in assigned:
         if name in controls or name in plant_init:
             continue
@@ -163,18 +181,3 @@ def checked_outputs(theorem: Theorem, plant_reads: set[str], plant_init: set[str
                                f"roles do not name it a control; add `{name}` to controls")
     return controls
 
-
-def environment_tests(environment: list[Program]) -> list[Test]:
-    """The environment's assumptions: the tests among its statements."""
-    return [q for q in environment if isinstance(q, Test)]
-
-
-def describe(theorem: Theorem) -> str:
-    """The declaration on one line, for generated docstrings."""
-    roles = theorem.roles
-    return (f"environment {', '.join(roles.environment_names) or '(none)'}; "
-            f"controls {', '.join(roles.control_names)}")
-
-
-__all__ = ["brief", "check_chosen", "check_declaration", "checked_outputs", "describe", "environment_tests",
-           "separate", "switched_controller"]

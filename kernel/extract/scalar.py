@@ -549,7 +549,7 @@ def python(theorem: Theorem, step: "Step") -> str:
     src += f"\n\ndef {ENTRY}({', '.join(params)}):\n"
     admitted = not rates and all(v in py.inputs for v in outputs)
     src += _python_doc(outputs, step.where, admitted, scalars, sort, allocated,
-                       [a for a in arrays if a in py.array_writes])
+                       [a for a in arrays if a in py.array_writes], _roles_note(theorem, params))
     blocked = ", ".join(["np.nan"] * len(outputs) + ["False"])
     src += f"    return _decide.run({STEP}, ({blocked}){''.join(', ' + p for p in params)})\n"
     src += f"\n\ndef {STEP}({', '.join([KIT, *params])}):\n"
@@ -586,8 +586,22 @@ def python(theorem: Theorem, step: "Step") -> str:
     return src
 
 
+def _roles_note(theorem: Theorem, params: list[str]) -> str:
+    """With declared roles: where the environment's values went."""
+    if theorem.roles is None:
+        return ""
+    env = theorem.roles.environment_names
+    read = [v for v in env if v in params]
+    unread = [v for v in env if v not in params]
+    said = ([f"{', '.join(read)} as sensed this period (inputs)"] if read else []) + \
+        ([f"{', '.join(unread)}, which the controller does not read"] if unread else [])
+    return (f"Roles declared by the model: the outputs are its controls; the environment chooses "
+            f"{' and '.join(said)}. The environment's choices are not part of this function: "
+            "environment_monitor (`certiloop extract --monitors`) checks the model's assumptions about them.")
+
+
 def _python_doc(outputs: list[str], where: str, admitted: bool, scalars: list[str], sort,
-                allocated: dict[str, str], copied: list[str]) -> str:
+                allocated: dict[str, str], copied: list[str], roles_note: str = "") -> str:
     if where == "modes":
         what = "the rates of the first mode, in the model's order, whose evolution domain holds in this state"
     elif where == "algorithm":
@@ -622,6 +636,8 @@ def _python_doc(outputs: list[str], where: str, admitted: bool, scalars: list[st
                       "error (IndexError).")
     if arrays:
         paras.append(" ".join(arrays))
+    if roles_note:
+        paras.append(roles_note)
     return '    """' + "\n\n".join(_wrap(para, 4) for para in paras).lstrip() + '\n    """\n'
 
 

@@ -15,7 +15,8 @@ from certiloop.models.library.registry import resolve, studies
 TEXTBOOK_ORDER = 30  # between the dual-arm planner and the RCM controller, as the list always showed
 TEXTBOOK = {name: f"certiloop.models.library.textbook:{name}" for name in (
     "bouncing_ball", "bouncing_ball_superelastic", "train", "train_no_lookahead", "water_tank",
-    "water_tank_late_check", "cart_forward", "cart_may_brake")}
+    "water_tank_late_check", "cart_forward", "cart_may_brake", "adaptive_cruise",
+    "adaptive_cruise_no_lookahead")}
 
 
 @cache

@@ -7,6 +7,7 @@ differential cuts (dC), and reasoning from polynomial ODE solutions.
 from __future__ import annotations
 
 from certiloop.models.lang.programs import assign, branch, choice, havoc, if_, loop, ode, seq, test
+from certiloop.models.lang.roles import Roles
 from certiloop.models.lang.terms import And, Or, Reals
 from certiloop.models.lang.theorem import Theorem
 
@@ -147,3 +148,50 @@ def cart_may_brake() -> Theorem:
     """Braking is allowed and nothing stops the cart at zero speed: it reverses."""
     return _cart("textbook.cart_may_brake", Or(acc >= 0, acc >= -1), "refuted",
                  "braking allowed: the cart rolls back past its start")
+
+
+# --------------------------------------------------------------------------- adaptive cruise control
+
+v, pl, vl, al, B = Reals("v pl vl al B")
+
+
+def _cruise(name: str, accelerate_zone, expected: str, description: str) -> Theorem:
+    leader = seq(havoc(al), test(And(-B <= al, al <= A)))  # the environment: any acceleration in [-B, A]
+    control = choice(
+        branch("accelerate", test(accelerate_zone), assign(a, A)),
+        branch("stopped", test(v == 0), assign(a, 0)),
+        branch("brake", assign(a, -B)),
+    )
+    plant = seq(assign(t, 0), ode({p: v, v: a, pl: vl, vl: al, t: 1}, And(v >= 0, vl >= 0, t <= eps)))
+    # both brake at B at most: the follower stays behind if it can stop before the leader can
+    safe_distance = And(p < pl, p + v**2 / (2 * B) < pl + vl**2 / (2 * B), v >= 0, vl >= 0)
+    return Theorem(
+        name=name,
+        assumptions=And(B > 0, A >= 0, eps > 0, safe_distance),
+        program=loop(seq(leader, control, plant), invariant=safe_distance, label="control loop"),
+        guarantee=p < pl,
+        expected=expected,
+        constants=(A, B, eps),
+        description=description,
+        roles=Roles(environment=(al,), controls=(a,)),
+    )
+
+
+def adaptive_cruise() -> Theorem:
+    """A follower at p, v behind a leader at pl, vl, both accelerating in [-B, A]; the leader's
+    acceleration al is the environment's choice, the follower's a the controller's (declared
+    `roles`: `extract` gives a controller of the follower's state and the leader's position and
+    speed, and an environment monitor of -B <= al <= A). The follower accelerates only if a whole
+    period of that keeps its stopping point behind the leader's. Proof: loop invariant, ODE by
+    its solution."""
+    lookahead = p + v**2 / (2 * B) + (A / B + 1) * (A / 2 * eps**2 + eps * v) < pl + vl**2 / (2 * B)
+    return _cruise("textbook.adaptive_cruise", lookahead, "proved",
+                   "follower keeps behind a leader that may brake at any time (loop invariant, ODE solution)")
+
+
+def adaptive_cruise_no_lookahead() -> Theorem:
+    """The accelerate zone compares stopping points now, forgetting the period of acceleration
+    before the controller runs again: the follower hits the leader."""
+    zone = p + v**2 / (2 * B) < pl + vl**2 / (2 * B)
+    return _cruise("textbook.adaptive_cruise_no_lookahead", zone, "refuted",
+                   "accelerate zone without the one-period look-ahead: hits the leader")
