@@ -184,7 +184,9 @@ def adaptive_cruise() -> Theorem:
     speed, and an environment monitor of -B <= al <= A). The follower accelerates only if a whole
     period of that keeps its stopping point behind the leader's. Proof: loop invariant, ODE by
     its solution."""
-    lookahead = p + v**2 / (2 * B) + (A / B + 1) * (A / 2 * eps**2 + eps * v) < pl + vl**2 / (2 * B)
+    # p + v^2/(2B) + (A/B + 1)(A/2 eps^2 + eps v) < pl + vl^2/(2B), times 2B > 0: no division in the
+    # guard, so the controller has a run wherever the model has (even at B = 0, outside the assumptions)
+    lookahead = 2 * B * p + v**2 + (A + B) * (A * eps**2 + 2 * eps * v) < 2 * B * pl + vl**2
     return _cruise("textbook.adaptive_cruise", lookahead, "proved",
                    "follower keeps behind a leader that may brake at any time (loop invariant, ODE solution)")
 
@@ -192,6 +194,6 @@ def adaptive_cruise() -> Theorem:
 def adaptive_cruise_no_lookahead() -> Theorem:
     """The accelerate zone compares stopping points now, forgetting the period of acceleration
     before the controller runs again: the follower hits the leader."""
-    zone = p + v**2 / (2 * B) < pl + vl**2 / (2 * B)
+    zone = 2 * B * p + v**2 < 2 * B * pl + vl**2
     return _cruise("textbook.adaptive_cruise_no_lookahead", zone, "refuted",
                    "accelerate zone without the one-period look-ahead: hits the leader")

@@ -44,7 +44,7 @@ EXTRACTS = [*dict.fromkeys([*CHECKED_IN_TEST_EXTRACT, "rcm.nullspace", "rcm.deco
             "rcm.capsule_nearest_point", "raven.deviation_stop", "raven.deviation_stop_3d",
             "raven.haptic_force", "cfmpa.builtdr_inclusive", "cfmpa.property8", "cfmpa.halfspace_convex",
             "cfmpa.arc_in_triangle", "cfmpa.check_path", "cfmpa.segment_modified_full_speed",
-            "cfmpa.joint_box_monotone"])]
+            "cfmpa.joint_box_monotone", "textbook.adaptive_cruise"])]
 
 rng = np.random.default_rng(19)
 
