@@ -56,6 +56,7 @@ from certiloop.models.lang.programs import (
     test,
     written,
 )
+from certiloop.models.lang.roles import Roles
 from certiloop.models.lang.terms import (
     BOOL,
     MODALITIES,
@@ -306,8 +307,21 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str)
         scenarios=tuple(_rename(_meta_formula(s, scope, source), names) for s in meta.get("scenarios", [])),
         well_defined=root_conditions,
         defined_if=guarded_roots + tuple((what, _rename(c, names)) for what, c in builder.lift_conditions),
+        roles=_roles(meta.get("roles"), place(source, problem)),
     )
     return theorem
+
+
+def _roles(roles, where) -> Roles | None:
+    """The metadata's roles (`certiloop export` writes them): symbols by certiloop's names."""
+    if roles is None:
+        return None
+    fields = ("environment", "controls")
+    if not (isinstance(roles, dict) and all(isinstance(roles.get(k, []), list) for k in fields)):
+        raise KyxError(f"{where}: the certiloop metadata's roles must be "
+                       '{"environment": [names], "controls": [names]}')
+    return Roles(environment=tuple(Real(str(n)) for n in roles.get("environment", [])),
+                 controls=tuple(Real(str(n)) for n in roles.get("controls", [])))
 
 
 def _pin_roots(roots: dict[str, tuple[Node, object]], assumptions: Node, program: Program,

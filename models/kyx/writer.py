@@ -207,6 +207,9 @@ def to_kyx(t: Theorem) -> str:
         "scenarios": [pr.formula(s) for s in t.scenarios],
         "names": {kyx: ours for ours, kyx in names.items()},
     }
+    if t.roles is not None:  # certiloop's own names, as the reader gives them back
+        meta["roles"] = {"environment": list(t.roles.environment_names),
+                         "controls": list(t.roles.control_names)}
     lines = [f"ArchiveEntry {json.dumps(t.name, ensure_ascii=False)}"]
     if t.description:
         lines.append(f"  Description {json.dumps(t.description, ensure_ascii=False)}.")
