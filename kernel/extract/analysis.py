@@ -144,6 +144,7 @@ def split(theorem: Theorem) -> Step:
     declared.check_declaration(theorem)
     step = _split(theorem)
     declared.check_chosen(theorem, step.environment)
+    step.reads |= set(theorem.roles.control_names)  # the outputs: every path's value is kept
     return step
 
 

@@ -442,3 +442,29 @@ def test_c_controller_senses_the_leader_and_decides_as_the_exact_model(tmp_path)
         decided += 1
         assert enabled and Fraction(a_) == acc_by_hand(state), state
     assert decided > 300
+
+
+def latch(controls) -> Theorem:
+    """A stop latch: once x reaches X the controller sets stopped and commands 0 from then on."""
+    x, X, stopped = Reals("x X stopped")
+    step = choice(branch("stopped", check(stopped >= 1), assign(a, 0)),
+                  branch("running", check(stopped < 1),
+                         choice(branch("reach", check(x >= X), assign(stopped, 1), assign(a, 0)),
+                                branch("go", check(x < X), assign(a, 1)))))
+    plant = seq(assign(t, 0), ode({x: a, t: 1}, t <= eps))
+    return Theorem("roles.latch", And(x <= X, stopped == 0), loop(seq(step, plant)), x <= X + eps,
+                   roles=Roles(controls=tuple(Real(c) for c in controls)))
+
+
+def test_a_control_only_the_next_step_reads_is_an_output_in_python_and_c():
+    with pytest.raises(ExtractError, match=r"sets `stopped`, which the next step reads.*add `stopped` to"):
+        extract(latch(["a"]))
+    ns: dict = {}
+    exec(extract(latch(["a", "stopped"])), ns)
+    assert ns["controller"].__doc__.startswith("Returns (a, stopped, enabled)")
+    call = lambda **s: ns["controller"](*(s[k] for k in ns["INPUTS"]))  # noqa: E731
+    assert call(x=0.5, X=1.0, stopped=0.0) == (1.0, 0.0, True)
+    assert call(x=1.0, X=1.0, stopped=0.0) == (0.0, 1.0, True)  # reaches X: latched
+    assert call(x=0.0, X=1.0, stopped=1.0) == (0.0, 1.0, True)  # stays stopped
+    header = extract_c(latch(["a", "stopped"]))["roles_latch.h"]
+    assert '#define ROLES_LATCH_OUTPUTS "a stopped"' in header
