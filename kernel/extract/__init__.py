@@ -50,10 +50,17 @@ Code generation follows the syntax tree:
     k = min(k, min over the family's members of kt);
   * `for` loops (`i := lo; {?i < hi; body; i := i + 1}*; ?i >= hi`) become `for i in range(lo, hi)`.
 Anything else is refused with a one-line ExtractError naming the statement and why.
+
+With declared roles (`Theorem(roles=Roles(environment=(al,), controls=(a,)))`, `environment`):
+the environment's `x := *` and the tests on them leave the step (the controller reads the chosen
+values as inputs), a choice of plant modes becomes the controller's choice with each mode's
+domain as a test, and the outputs are exactly the declared controls. Without roles nothing of
+this runs.
 Whether the model is proved is not checked here: the CLI refuses unproved models first.
 
 The package, one job a module (no module imports one listed after it):
   * errors — ExtractError and the one-line refusal;
+  * environment — declared roles: the environment's statements out of the step, the controls;
   * template — the generated module's header and docstrings, reserved names;
   * analysis — the control step of the model (`controller`), its outputs, shared syntax queries;
   * roots — solving a test's equation for the value it pins down;
@@ -70,6 +77,7 @@ The package, one job a module (no module imports one listed after it):
   * c/build — tooling: compile a C kernel and call it through ctypes (tests, benchmarks);
   * monitor_terms — what the monitors share: MonitorError, a term as Python over a dict;
   * modelplex_family — the controller monitor of a step over a family of boundaries;
+  * modelplex_environment — with declared roles, the environment monitor;
   * modelplex — `monitors(theorem)`: the ModelPlex-style controller and plant monitors of an
     extracted model, a module of their own (`certiloop extract MODEL --monitors`).
 """

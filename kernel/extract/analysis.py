@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from certiloop.kernel.extract import roles as declared
+from certiloop.kernel.extract import environment as declared
 from certiloop.kernel.extract.errors import ExtractError, brief, refuse
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars

@@ -47,6 +47,9 @@ Checked, for one ODE or any mode of a switched plant:
     monitor says False (it cannot vouch for the step).
 Models without a plant (algorithms, Hoare triples) have no plant monitor.
 
+`environment_monitor(state) -> bool` — only for a model with declared roles: the environment's
+values satisfy the model's tests on them (modelplex_environment.py).
+
 Monitors come only from the model's syntax tree; nothing is written by hand per model. A shape
 they cannot be generated for is refused with a one-line MonitorError naming why.
 """

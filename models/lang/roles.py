@@ -4,7 +4,7 @@ The environment's variables are the values the world picks and the robot senses 
 acceleration `al := *; ?-B <= al & al <= A`); the controls are what the robot computes and
 actuates (its own acceleration `a`); every other symbol is state. The declaration does not change
 the claim the proof is about: it tells `certiloop extract` where the controller ends (see
-`certiloop.kernel.extract.roles`). Checked here: each entry is a plain symbol, named once."""
+`certiloop.kernel.extract.environment`). Checked here: each entry is a plain symbol, named once."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """Declared roles (`Theorem(roles=Roles(environment=(al,), controls=(a,)))`, issue 43 item 4;
-certiloop/kernel/extract/roles.py, modelplex_environment.py).
+certiloop/kernel/extract/environment.py, modelplex_environment.py).
 
 Witnesses, all independent of the generated code:
   * the adaptive cruise control's step written by hand below in exact rationals (Fractions of
