@@ -294,6 +294,18 @@ def test_without_roles_plant_modes_still_give_rates():
     assert "al" in ns["INPUTS"] and "Returns (p_dot, v_dot" in ns["controller"].__doc__
 
 
+def switched_by_hand(state: dict) -> Fraction | None:
+    """The switched model's controller: the first branch whose test and domain (after t := 0)
+    hold; None if none (B != 0 here)."""
+    p_, v_, pl_, vl_, A_, B_, eps_, d_ = (Fraction(state[k]) for k in (*ACC_KEYS, "d"))
+    if not (v_ >= 0 and vl_ >= 0 and 0 <= eps_):  # every mode has this domain
+        return None
+    follower = p_ + v_ * v_ / (2 * B_) + (A_ / B_ + 1) * (A_ / 2 * eps_ * eps_ + eps_ * v_)
+    if follower < pl_ + vl_ * vl_ / (2 * B_):
+        return d_
+    return Fraction(0) if v_ == 0 else -B_
+
+
 def test_with_roles_plant_modes_give_the_controls_and_test_the_domain_at_the_start():
     ns = namespace("switched", switched(Roles(environment=(al, d), controls=(a,))))
     assert "al" not in ns["INPUTS"] and "d" in ns["INPUTS"]
@@ -302,15 +314,7 @@ def test_with_roles_plant_modes_give_the_controls_and_test_the_domain_at_the_sta
         state = {**state, "d": _float(3.0)}
         if rng.random() < 0.2:
             state["vl"] = -state["vl"] or -1.0  # no mode's domain holds at the start: no run
-        p_, v_, pl_, vl_, A_, B_, eps_, d_ = (Fraction(state[k]) for k in (*ACC_KEYS, "d"))
-        starts = v_ >= 0 and vl_ >= 0 and 0 <= eps_  # every mode's domain after t := 0
-        lhs = p_ + v_ * v_ / (2 * B_) + (A_ / B_ + 1) * (A_ / 2 * eps_ * eps_ + eps_ * v_)
-        if not starts:
-            want = None
-        elif lhs < pl_ + vl_ * vl_ / (2 * B_):
-            want = d_
-        else:
-            want = Fraction(0) if v_ == 0 else -B_
+        want = switched_by_hand(state)
         got, enabled = ns["controller"](*(state[k] for k in ns["INPUTS"]))
         assert enabled is (want is not None), state
         if want is not None:
@@ -468,3 +472,19 @@ def test_a_control_only_the_next_step_reads_is_an_output_in_python_and_c():
     assert call(x=0.0, X=1.0, stopped=1.0) == (0.0, 1.0, True)  # stays stopped
     header = extract_c(latch(["a", "stopped"]))["roles_latch.h"]
     assert '#define ROLES_LATCH_OUTPUTS "a stopped"' in header
+
+
+@pytest.mark.skipif(compiler() is None, reason="no C compiler (cc, gcc or $CC) on this machine")
+def test_c_switched_controller_gives_the_controls(tmp_path):
+    model = switched(Roles(environment=(al, d), controls=(a,)))
+    kernel = load(extract_c(model), tmp_path / "switched")
+    assert kernel.outputs == ["a"] and "d" in kernel.inputs and "al" not in kernel.inputs
+    decided = 0
+    for state in [*(random_state() for _ in range(200)), *tie_states()]:
+        state = {**state, "d": _float(3.0)}
+        got, enabled = kernel(*(state[k] for k in kernel.inputs))
+        if not kernel.undecided:
+            decided += 1
+            want = switched_by_hand(state)
+            assert enabled is (want is not None) and (want is None or Fraction(got) == want), state
+    assert decided > 200
