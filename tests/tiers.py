@@ -14,7 +14,7 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-QUICK_SHARE = 0.13  # measured on 2 idle cores: 0.36 gave a 7.5-min quick tier, 0.22 gave 6.2 min; 5 is the aim
+QUICK_SHARE = 0.13  # the quick tier's aim: 5 minutes on 2 idle cores
 HERE = Path(__file__).parent
 
 
