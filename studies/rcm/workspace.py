@@ -18,6 +18,7 @@ from numpy.linalg import LinAlgError
 from numpy.linalg import _umath_linalg as gufuncs
 
 from certiloop.studies.rcm.arm import DH_ALPHA, DH_D
+from certiloop.studies.rcm.cloud import TipScratch
 
 _MINORS = np.array([[j for j in range(7) if j != i] for i in range(7)])   # column i left out, row i
 _COFACTOR_SIGNS = np.array([1, -1, 1, -1, 1, -1, 1])
@@ -96,7 +97,15 @@ class StepWorkspace:
         self.force, self.qdd, self.qdd2 = e(5), e(7), e(7)
         self.q_next, self.qd_next, self.dq, self.abs7 = e(7), e(7), e(7), e(7)
         self.finite6, self.finite7 = np.empty(6, dtype=bool), np.empty(7, dtype=bool)
+        self.tip_scratch: TipScratch | None = None
         self.set_gains(gains)
+
+    def scratch_for(self, barrier) -> TipScratch:
+        """Buffers for the barrier's points in reach (made again for a larger cloud)."""
+        scratch = self.tip_scratch
+        if scratch is None or scratch.capacity < len(barrier.points):
+            scratch = self.tip_scratch = TipScratch(len(barrier.points))
+        return scratch
 
     def set_gains(self, g) -> None:
         self.gains = g
@@ -144,7 +153,7 @@ class StepWorkspace:
             gufuncs.inv(self.AAt, signature="d->d", out=self.AAt_inv)
         np.matmul(self.Z_x, self.JJt_J, out=self.Z_top)
         # the cofactor row G (G J^T = 0), unit norm: dynamics.redundancy_row
-        np.take(self.J, _MINORS, axis=1, out=self.minors_raw)
+        np.take(self.J, _MINORS, axis=1, out=self.minors_raw, mode="clip")   # "raise" buffers out
         gufuncs.det(self.minors, signature="d->d", out=self.cof)
         np.multiply(self.cof, _COFACTOR_SIGNS, out=self.cof)
         np.divide(self.cof, math.sqrt(self.cof.dot(self.cof)), out=self.Z_row)
