@@ -67,7 +67,29 @@ def main() -> None:
                      "median_s": round(statistics.median(ts), 4), "min_s": round(min(ts), 4),
                      "max_s": round(max(ts), 4), "runs": len(ts), "target_s": 0.2})
     rows.sort(key=lambda r: (r["case"], r["side"]))
+    with tempfile.TemporaryDirectory() as stored:
+        for side, cli in sides.items():
+            once(cli, ["list"], stored)
+            rows.append({"case": "imports of certiloop list (stored), top 8, ms", "side": side,
+                         "median_s": "", "min_s": "", "max_s": "", "runs": 1, "target_s": "",
+                         "imports_ms": slowest_imports(cli, stored)})
+    for r in rows:
+        r.setdefault("imports_ms", "")
     record("cli_startup", rows)
+
+
+def slowest_imports(cli: str, cache: str, top: int = 8) -> dict[str, float]:
+    """The top-level imports of `certiloop list` with the largest cumulative time (-X importtime)."""
+    python = str(Path(cli).with_name("python"))
+    env = {**os.environ, "CERTILOOP_CACHE": cache}
+    err = subprocess.run([python, "-X", "importtime", "-m", "certiloop.cli", "list"], capture_output=True,
+                         text=True, env=env, check=False).stderr
+    found = {}
+    for line in err.splitlines():
+        parts = line.split("|")
+        if len(parts) == 3 and parts[1].strip().isdigit() and not parts[2].startswith("  "):
+            found[parts[2].strip()] = int(parts[1]) / 1000
+    return dict(sorted(found.items(), key=lambda kv: -kv[1])[:top])
 
 
 if __name__ == "__main__":
