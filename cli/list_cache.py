@@ -30,8 +30,12 @@ RICH_ENV = ("COLUMNS", "LINES", "JUPYTER_COLUMNS", "JUPYTER_LINES", "NO_COLOR", 
 KEEP = 16  # entries kept in the folder (the newest): one per console width and source state in use
 
 
-def folder() -> Path:
-    return Path(os.environ.get("CERTILOOP_CACHE") or Path.home() / ".cache" / "certiloop") / "list"
+def folder() -> Path | None:
+    """Where entries live; None without a home folder to put them in."""
+    try:
+        return Path(os.environ.get("CERTILOOP_CACHE") or Path.home() / ".cache" / "certiloop") / "list"
+    except RuntimeError:  # no $HOME and no user entry: nothing is stored
+        return None
 
 
 def _sources(packages) -> list:
@@ -96,8 +100,11 @@ def _checksum(text: str) -> str:
 
 def read(entry_key: str) -> str | None:
     """The stored text, or None when there is none or it is not trustworthy."""
+    where = folder()
+    if where is None:
+        return None
     try:
-        entry = json.loads((folder() / f"{entry_key}.json").read_text())
+        entry = json.loads((where / f"{entry_key}.json").read_text())
         if entry["key"] == entry_key and entry["checksum"] == _checksum(entry["text"]):
             return entry["text"]
     except (OSError, ValueError, KeyError, TypeError):
@@ -108,6 +115,8 @@ def read(entry_key: str) -> str | None:
 def write(entry_key: str, text: str) -> None:
     """Store the text (atomically), dropping all but the newest KEEP entries; never fails."""
     where = folder()
+    if where is None:
+        return
     try:
         where.mkdir(parents=True, exist_ok=True)
         tmp = where / f".{entry_key}.{os.getpid()}.tmp"
