@@ -200,11 +200,14 @@ class RcmAdmittance:
         if not np.isfinite(F_h, out=ws.finite6).all():
             return self._hold("non-finite human wrench")
         if q_measured is not None:
-            try:
-                q_msr = np.asarray(q_measured, dtype=float).reshape(7)
-            except (TypeError, ValueError):
-                return self._hold("malformed measured joints (need 7 numbers)")
-            if not np.max(np.abs(q_msr - self.q)) <= TRACKING_TOL:      # NaN fails this too
+            q_msr = q_measured
+            if not (type(q_msr) is np.ndarray and q_msr.shape == (7,) and q_msr.dtype == np.float64):
+                try:
+                    q_msr = np.asarray(q_measured, dtype=float).reshape(7)
+                except (TypeError, ValueError):
+                    return self._hold("malformed measured joints (need 7 numbers)")
+            np.subtract(q_msr, self.q, out=ws.dq)
+            if not np.abs(ws.dq, out=ws.dq).max() <= TRACKING_TOL:      # NaN fails this too
                 return self._hold("tracking error: the robot is not following q_d")
         _clip_wrench_into(F_h)
         dt = self.dt

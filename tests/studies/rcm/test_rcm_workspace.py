@@ -136,8 +136,11 @@ def test_the_buffered_step_is_the_formulas_bit_for_bit(seed, mode, integrator, g
         c.q, c.qdot = start.copy(), qdot.copy()
     for i, w in enumerate(wrench_stream(rng, 40)):
         measured = None
-        if i % 7 == 3:   # the robot's joints: tracking, or (once in a while) not
+        if i % 7 == 3:   # the robot's joints: tracking, or (once in a while) not; an array or a list
             measured = new.q + rng.normal(0.0, 1e-3 if rng.random() < 0.8 else 1e-2, 7)
+            measured = measured if rng.random() < 0.5 else list(measured)
+        elif i % 17 == 5:
+            measured = [0.0] * 6   # malformed
         a, b = new.step(w, q_measured=measured), reference_step(old, w, q_measured=measured)
         assert same_bits(a, b), (i, a, b)
         assert np.array_equal(new.q, old.q) and np.array_equal(new.qdot, old.qdot)
