@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-VIEWS_KEPT = 256  # sizes of the in-reach set whose buffer views are kept (a few KiB each)
+VIEWS_KEPT = 256  # sizes of the in-reach set whose buffer views are kept (about 1 KiB each)
 
 
 class TipScratch:
