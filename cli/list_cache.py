@@ -48,7 +48,10 @@ def _sources(packages) -> list:
                 dirnames[:] = sorted(d for d in dirnames if d != "__pycache__")
                 for name in sorted(filenames):
                     path = os.path.join(dirpath, name)
-                    st = os.stat(path)
+                    try:
+                        st = os.stat(path)
+                    except OSError:  # gone since the walk listed it (an editor's temporary file)
+                        continue
                     found.append((package, path[len(root):], st.st_size, st.st_mtime_ns))
     return found
 
