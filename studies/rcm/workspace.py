@@ -15,10 +15,36 @@ import math
 
 import numpy as np
 from numpy.linalg import LinAlgError
-from numpy.linalg import _umath_linalg as gufuncs
 
 from certiloop.studies.rcm.arm import DH_ALPHA, DH_D
 from certiloop.studies.rcm.cloud import TipScratch
+
+
+class _LinalgCopying:
+    """The same operations through the public np.linalg, copied into `out` (allocates)."""
+
+    @staticmethod
+    def solve(a, b, signature, out):
+        np.copyto(out, np.linalg.solve(a, b))
+
+    @staticmethod
+    def inv(a, signature, out):
+        np.copyto(out, np.linalg.inv(a))
+
+    @staticmethod
+    def det(a, signature, out):
+        np.copyto(out, np.linalg.det(a))
+
+    @staticmethod
+    def svd(a, signature, out):
+        np.copyto(out, np.linalg.svd(a, compute_uv=False))
+
+
+try:  # a private numpy module: should a release move it, the step still runs, allocating
+    from numpy.linalg import _umath_linalg as gufuncs
+except ImportError:  # pragma: no cover - numpy of today has it
+    gufuncs = _LinalgCopying()
+
 
 _MINORS = np.array([[j for j in range(7) if j != i] for i in range(7)])   # column i left out, row i
 _COFACTOR_SIGNS = np.array([1, -1, 1, -1, 1, -1, 1])

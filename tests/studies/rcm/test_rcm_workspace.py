@@ -219,3 +219,19 @@ def test_ticks_set_off_no_garbage_collection():
         gc.callbacks.remove(watch)
         gc.set_threshold(*old)
     assert result.ok and runs == []
+
+
+def test_the_public_linalg_fallback_computes_the_same(monkeypatch):
+    """Without numpy's private gufuncs the workspace goes through np.linalg: same bits."""
+    from certiloop.studies.rcm import workspace
+
+    rng = np.random.default_rng(5)
+    a = rng.normal(size=(6, 6)) + 6 * np.eye(6)
+    b = rng.normal(size=(6, 7))
+    for name, args, signature, shape in (("solve", (a, b), "dd->d", (6, 7)), ("inv", (a,), "d->d", (6, 6)),
+                                         ("det", (np.stack([a, a.T]),), "d->d", (2,)),
+                                         ("svd", (b,), "d->d", (6,))):
+        fast, slow = np.empty(shape), np.empty(shape)
+        getattr(workspace.gufuncs, name)(*args, signature=signature, out=fast)
+        getattr(workspace._LinalgCopying, name)(*args, signature=signature, out=slow)
+        assert np.array_equal(fast, slow), name
