@@ -19,19 +19,19 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-QUICK_SHARE = 0.13  # the quick tier's aim: 5 minutes on 2 idle cores
+QUICK_SHARE = 0.15  # the quick tier's aim: 5 minutes on 2 idle cores
 HERE = Path(__file__).parent
 
 
 def choose(durations: str, cases: str = "") -> list[str]:
     case_seconds = {}
     for line in cases.splitlines():
-        m = re.match(r"([\d.]+)s case\s+(\S+)", line)
+        m = re.match(r"([\d.]+)s case\s+(\S.*?)\s*$", line)
         if m:
             case_seconds[m.group(2)] = float(m.group(1))
     seconds: dict[str, float] = defaultdict(float)
     for line in durations.splitlines():
-        m = re.match(r"([\d.]+)s (setup|call|teardown)\s+(\S+)", line)
+        m = re.match(r"([\d.]+)s (setup|call|teardown)\s+(\S.*?)\s*$", line)
         if m and not (m.group(2) == "setup" and m.group(3) in case_seconds):
             seconds[m.group(3)] += float(m.group(1))
     for node, t in case_seconds.items():
