@@ -1,7 +1,8 @@
 """Per-tick Python cost of the Raven-II and RCM kernels: this commit against another (default
-ae9f168, its kernel modules loaded from git beside these), interleaved rounds in one process.
+3b34d1f, its kernel modules loaded from git beside these: studies/, or kernel/ before the
+studies moved), interleaved rounds in one process.
 
-    python benchmarks/bench_kernel_ticks.py [--old ae9f168] [--rounds 5] [--calls 1000]
+    python benchmarks/bench_kernel_ticks.py [--old 3b34d1f] [--rounds 5] [--calls 1000]
 
 * raven arm.step, monitor.step, ik_step with 1 run (all of it is per-call overhead: numpy
   calls on arrays of 3-6 numbers) and with 1,000 runs (the campaign's batch);
@@ -30,10 +31,19 @@ from certiloop.studies.rcm.demo import demo_controller
 ROOT = Path(__file__).resolve().parent.parent
 
 
-def old_module(commit: str, path: str, folder: Path):
+def old_module(commit: str, paths: tuple[str, ...], name: str, folder: Path):
+    """The first of `paths` that exists at `commit`, loaded as module old_NAME."""
+    import subprocess
+
     import old_code
 
-    return old_code.load("old_" + Path(path).stem, old_code.source(commit, path), folder)
+    for path in paths:
+        try:
+            text = old_code.source(commit, path)
+        except subprocess.CalledProcessError:
+            continue
+        return old_code.load(f"old_{name}", text, folder)
+    raise SystemExit(f"{commit} has none of {', '.join(paths)}")
 
 
 def raven_cases(mods: dict, runs: int) -> dict:
@@ -72,15 +82,17 @@ def rcm_cases(mods: dict) -> dict:
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--old", default="ae9f168")
+    ap.add_argument("--old", default="3b34d1f")
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--calls", type=int, default=1000)
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        old_raven = old_module(args.old, "kernel/raven.py", folder)
-        old_dev = old_module(args.old, "kernel/deviation.py", folder)
-        old_rcm = old_module(args.old, "kernel/rcm_dynamics.py", folder)
+        old_raven = old_module(args.old, ("studies/raven/arm.py", "kernel/raven.py"), "raven", folder)
+        old_dev = old_module(args.old, ("studies/raven/deviation.py", "kernel/deviation.py"), "deviation",
+                             folder)
+        old_rcm = old_module(args.old, ("studies/rcm/dynamics.py", "kernel/rcm_dynamics.py"), "rcm_dynamics",
+                             folder)
         cases = {**raven_cases({"old": (old_raven, old_dev), "new": (raven, deviation)}, 1),
                  **raven_cases({"old": (old_raven, old_dev), "new": (raven, deviation)}, 1000),
                  **rcm_cases({"old": old_rcm, "new": rcm_dynamics})}

@@ -1,9 +1,10 @@
 """Tail latency of the RCM step (`RcmAdmittance.step`, 10,000 cloud points at the tip, the
 demo scene of bench_rcm.py): median, p99 and max over 10,000 ticks, this commit's step against
-another commit's (default ae9f168, its kernel/rcm_dynamics.py loaded from git beside this one),
-interleaved in blocks of ticks so that a busy moment of the machine hits both.
+another commit's (default 3b34d1f, its studies/rcm/dynamics.py, or kernel/rcm_dynamics.py before
+the studies moved, loaded from git beside this one), interleaved in blocks of ticks so that a
+busy moment of the machine hits both.
 
-    python benchmarks/bench_rcm_tail.py [--old ae9f168] [--ticks 10000] [--points 10000]
+    python benchmarks/bench_rcm_tail.py [--old 3b34d1f] [--ticks 10000] [--points 10000]
 
 Three garbage-collector regimes, each a row per side:
 * "on": Python's default, as any caller gets it;
@@ -13,11 +14,11 @@ Three garbage-collector regimes, each a row per side:
 * "frozen+off": as "frozen" and gc.disable() for the loop (the step's arrays are freed by
   reference counting the moment they die; the step makes no cycles: gc.collect() after the
   loop finds nothing, or the run says so).
-`kib_per_tick` is the peak traced memory of one step above what it keeps (tracemalloc, a
-separate pass): what the step allocates and frees again. `gc_runs_in_loop_both_sides` and
-`longest_gc_ms` count the collector's runs during the loop (gc.callbacks; old and new share
-them): few, since a step's arrays are not tracked by the collector; a tick above 1 ms without
-a collection is the scheduler (see the record's load average). Writes results/rcm_tail.json.
+`kib_per_tick` is the median over ticks of the peak traced memory during a step above what was
+traced before it (tracemalloc, a separate pass; the step's result included). `gc_runs` and
+`longest_gc_ms` count the cycle collector's runs that started during this side's ticks
+(gc.callbacks); a tick above 1 ms without a collection is the scheduler (see the record's load
+average). Writes results/rcm_tail.json.
 """
 
 from __future__ import annotations
@@ -41,10 +42,17 @@ BLOCK = 500  # ticks per side before switching
 
 
 def old_controller_class(commit: str, folder: Path):
+    import subprocess
+
     import old_code
 
-    text = old_code.source(commit, "kernel/rcm_dynamics.py")
-    return old_code.load("old_rcm_dynamics", text, folder).RcmAdmittance
+    for path in ("studies/rcm/dynamics.py", "kernel/rcm_dynamics.py"):
+        try:
+            text = old_code.source(commit, path)
+        except subprocess.CalledProcessError:
+            continue
+        return old_code.load("old_rcm_dynamics", text, folder).RcmAdmittance
+    raise SystemExit(f"{commit} has no RCM dynamics module")
 
 
 def controllers(Old, points: int) -> dict:
@@ -55,17 +63,21 @@ def controllers(Old, points: int) -> dict:
 
 
 class Collections:
-    """The cycle collector's runs while it is installed (gc.callbacks): how many, the longest."""
+    """The cycle collector's runs while it is installed (gc.callbacks), by the side whose ticks
+    were running: how many, the longest."""
 
     def __init__(self) -> None:
-        self.runs, self.longest_ns, self._start = 0, 0, 0
+        self.side, self._start = "", 0
+        self.runs: dict[str, int] = {}
+        self.longest_ns: dict[str, int] = {}
 
     def __call__(self, phase: str, info: dict) -> None:
         if phase == "start":
             self._start = time.perf_counter_ns()
         else:
-            self.runs += 1
-            self.longest_ns = max(self.longest_ns, time.perf_counter_ns() - self._start)
+            self.runs[self.side] = self.runs.get(self.side, 0) + 1
+            self.longest_ns[self.side] = max(self.longest_ns.get(self.side, 0),
+                                             time.perf_counter_ns() - self._start)
 
 
 def run(Old, points: int, ticks: int, regime: str, collections: Collections) -> dict[str, list[int]]:
@@ -82,6 +94,7 @@ def run(Old, points: int, ticks: int, regime: str, collections: Collections) -> 
     try:
         for start in range(0, ticks, BLOCK):
             for side, c in sides.items():
+                collections.side = side
                 out = times[side]
                 for w in wrenches[start:start + BLOCK]:
                     t0 = time.perf_counter_ns()
@@ -116,7 +129,7 @@ def allocated_kib(c, ticks: int = 200) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser()
-    ap.add_argument("--old", default="ae9f168")
+    ap.add_argument("--old", default="3b34d1f")
     ap.add_argument("--ticks", type=int, default=10_000)
     ap.add_argument("--points", type=int, default=10_000)
     args = ap.parse_args()
@@ -136,8 +149,8 @@ def main() -> None:
                              "over_1ms": sum(t > 1e6 for t in times[side]),
                              "over_2ms": sum(t > 2e6 for t in times[side]),
                              "kib_per_tick": round(kib[side], 1),
-                             "gc_runs_in_loop_both_sides": collections.runs,
-                             "longest_gc_ms": round(collections.longest_ns / 1e6, 3)})
+                             "gc_runs": collections.runs.get(side, 0),
+                             "longest_gc_ms": round(collections.longest_ns.get(side, 0) / 1e6, 3)})
             old, new = rows[-2], rows[-1]
             new["speedup_median"] = round(old["median_ms"] / new["median_ms"], 2)
             new["speedup_p99"] = round(old["p99_ms"] / new["p99_ms"], 2)

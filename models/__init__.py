@@ -1,58 +1,41 @@
-"""certiloop.models: the modelling language (terms, formulas, hybrid programs, theorems)."""
+"""certiloop.models: the modelling language (terms, formulas, hybrid programs, theorems).
 
-from certiloop.models.lang.programs import (
-    ODE,
-    Assign,
-    Choice,
-    Havoc,
-    Loop,
-    Program,
-    Seq,
-    Test,
-    assign,
-    assign_min,
-    branch,
-    choice,
-    for_range,
-    foreach,
-    havoc,
-    if_,
-    loop,
-    ode,
-    seq,
-    skip,
-    test,
-)
-from certiloop.models.lang.roles import Roles
-from certiloop.models.lang.terms import (
-    BOOL,
-    FALSE,
-    INT,
-    REAL,
-    TRUE,
-    And,
-    Array,
-    Bool,
-    Box,
-    Diamond,
-    Exists,
-    Family,
-    ForAll,
-    Iff,
-    Implies,
-    IndexSort,
-    Int,
-    Ints,
-    Ite,
-    ModelError,
-    Node,
-    Not,
-    Or,
-    Real,
-    Reals,
-    Var,
-    dot,
-)
-from certiloop.models.lang.theorem import Theorem
+Its names load on first use (PEP 562): `certiloop list` and `--help` reach the model registry
+(`certiloop.models.library.registry`) through this package without building the language."""
 
-__all__ = [name for name in dir() if not name.startswith("_")]
+from __future__ import annotations
+
+from importlib import import_module
+
+_HOME = {
+    **dict.fromkeys((
+        "ODE", "Assign", "Choice", "Havoc", "Loop", "Program", "Seq", "Test", "assign",
+        "assign_min", "branch", "choice", "for_range", "foreach", "havoc", "if_", "loop", "ode",
+        "seq", "skip", "test",
+    ), "certiloop.models.lang.programs"),
+    **dict.fromkeys((
+        "BOOL", "FALSE", "INT", "REAL", "TRUE", "And", "Array", "Bool", "Box", "Diamond", "Exists",
+        "Family", "ForAll", "Iff", "Implies", "IndexSort", "Int", "Ints", "Ite", "ModelError",
+        "Node", "Not", "Or", "Real", "Reals", "Var", "dot",
+    ), "certiloop.models.lang.terms"),
+    **dict.fromkeys((
+        "Roles",
+    ), "certiloop.models.lang.roles"),
+    **dict.fromkeys((
+        "Theorem",
+    ), "certiloop.models.lang.theorem"),
+}
+
+__all__ = sorted(_HOME)
+
+
+def __getattr__(name: str):
+    if name in _HOME:
+        value = getattr(import_module(_HOME[name]), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_HOME))

@@ -36,7 +36,7 @@ def pytest_configure(config):
 
 
 # the slowest tests of a timed run (tests/tiers.py chooses them): marked `slow` at collection
-SLOW_TESTS = set((Path(__file__).parent / "slow_tests.txt").read_text().split())
+SLOW_TESTS = set((Path(__file__).parent / "slow_tests.txt").read_text().splitlines())  # ids may hold spaces
 
 
 @pytest.hookimpl(tryfirst=True)

@@ -6,7 +6,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from certiloop import api
 from certiloop.cli import options
 from certiloop.cli.errors import EXIT_FAILED, EXIT_OK, BadInput
 
@@ -46,6 +45,7 @@ def run(args: argparse.Namespace) -> int:
         raise BadInput("--lang c writes two files (MODEL.c and MODEL.h); give the folder with -o DIR")
     options.check_outputs(("--output", args.output, "folder" if args.lang == "c" else "file"),
                    ("--cache", args.cache, "folder"))
+    from certiloop import api
     from certiloop.api.loading import load
     from certiloop.cli import ui
     from certiloop.cli.proof_table import show_result

@@ -6,7 +6,6 @@ import argparse
 import time
 from pathlib import Path
 
-from certiloop import api
 from certiloop.cli import options
 from certiloop.cli.errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_OK, BadInput
 
@@ -85,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
             raise BadInput(str(exc)) from None
         options.write_json(args.json, options.json_payload(docs, len(docs)))
         return code
+    from certiloop import api
     from certiloop.api.loading import Unsupported, load_all
 
     theorems = load_all(args.models, keep_unsupported=True)

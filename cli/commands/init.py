@@ -4,7 +4,6 @@ model, a pytest file), never overwriting anything that is already there."""
 from __future__ import annotations
 
 import argparse
-import tomllib
 from importlib.resources import files
 from pathlib import Path
 
@@ -29,6 +28,8 @@ def add_parser(sub) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    import tomllib
+
     folder = Path.cwd()
     pyproject = folder / "pyproject.toml"
     text = pyproject.read_text(encoding="utf-8") if pyproject.is_file() else ""

@@ -7,7 +7,6 @@ import sys
 import time
 from pathlib import Path
 
-from certiloop import api
 from certiloop.cli import options
 from certiloop.cli.errors import EXIT_BAD_INPUT, EXIT_FAILED, EXIT_INCONSISTENT, EXIT_OK
 
@@ -40,6 +39,7 @@ def run(args: argparse.Namespace) -> int:
     options.check_common(args)
     options.check_outputs(("--json", args.json, "file or -"), ("--smtlib", args.smtlib, "folder"),
                           ("--certificate", args.certificate, "folder"))
+    from certiloop import api
     from certiloop.api.loading import Unsupported, load_all
 
     theorems = load_all(args.models, keep_unsupported=True)  # all bad names fail before any work

@@ -7,10 +7,12 @@ from __future__ import annotations
 
 import difflib
 from functools import cache
+from typing import TYPE_CHECKING
 
-from certiloop.models.lang.terms import ModelError
-from certiloop.models.lang.theorem import Theorem
 from certiloop.models.library.registry import resolve, studies
+
+if TYPE_CHECKING:
+    from certiloop.models.lang.theorem import Theorem
 
 TEXTBOOK_ORDER = 30  # between the dual-arm planner and the RCM controller, as the list always showed
 TEXTBOOK = {name: f"certiloop.models.library.textbook:{name}" for name in (
@@ -39,6 +41,8 @@ def names() -> list[str]:
 
 
 def get(name: str) -> Theorem:
+    from certiloop.models.lang.terms import ModelError
+
     builders = _builders()
     try:
         target = builders[name]

@@ -25,8 +25,8 @@ from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.arith.smtlib import script
 from certiloop.proofs.checker import keys
 from certiloop.proofs.checker.derive import FLOW_TIME, Derivation, Leaf, Rejected
-from certiloop.proofs.checker.ode_facts import NotCheckable
 from certiloop.proofs.checker.keys import Malformed
+from certiloop.proofs.checker.ode_facts import NotCheckable
 
 FORMAT = "certiloop-certificate/1"
 DECIDED = "z3 unsat"  # the one decision procedure of format v1

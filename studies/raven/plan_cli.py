@@ -9,8 +9,6 @@ does not (or when the file holds no certified path), 2 on a malformed file.
 from __future__ import annotations
 
 import json
-import platform
-import statistics
 import time
 from pathlib import Path
 from types import SimpleNamespace
@@ -37,11 +35,15 @@ def parse_eta(text: str) -> tuple[float, float]:
 
 
 def _median(values):
+    import statistics
+
     values = [v for v in values if v is not None]
     return statistics.median(values) if values else None
 
 
 def summary(scene_name: str, samples: int, eta, seed: int, runs: list[dict]) -> dict:
+    import platform
+
     ok = [r for r in runs if r["success"]]
     return {"scenario": scene_name, "samples": samples, "eta": list(eta), "seed": seed,
             "runs_total": len(runs), "successes": len(ok), "success_rate": len(ok) / len(runs),

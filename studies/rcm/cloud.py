@@ -17,6 +17,31 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+VIEWS_KEPT = 256  # sizes of the in-reach set whose buffer views are kept (about 1 KiB each)
+
+
+class TipScratch:
+    """Buffers for `CloudBarrier.tip_into` over up to `capacity` points in reach, owned by one
+    controller (a barrier shared by several stays free of state)."""
+
+    def __init__(self, capacity: int) -> None:
+        self.capacity = capacity
+        n = capacity
+        self.buffers = (np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n), np.empty(n),
+                        np.empty(n, dtype=bool), np.empty((n, 3)))
+        self.kept: dict[int, tuple] = {}
+
+    def views(self, m: int) -> tuple:
+        """The first m rows of diff (N, 3), rho, e, y, kv (N,), band (N,) bool, f (N, 3), then kv and
+        band as columns; the views of the first VIEWS_KEPT sizes are kept (a tick then makes none)."""
+        found = self.kept.get(m)
+        if found is None:
+            found = tuple(b[:m] for b in self.buffers)
+            found += (found[4][:, None], found[5][:, None])
+            if len(self.kept) < VIEWS_KEPT:
+                self.kept[m] = found
+        return found
+
 
 class CloudBarrier:
     def __init__(self, points, d_c: float, d0: float = 0.0115, k: float = 0.01, radius: float = 0.0):
@@ -55,6 +80,46 @@ class CloudBarrier:
             return np.zeros(3), self.d0
         f, gap = self._forces(p[None, :], self.points[idx], self.d_c)
         return f.sum(axis=0), min(gap, self.d0)
+
+    def tip_into(self, p: np.ndarray, out: np.ndarray, scratch: TipScratch) -> float:
+        """`tip` for a step's hot path: the force written into `out` (3,), the gap returned, the
+        same operations in the caller's buffers (`scratch`, for as many points as the cloud)."""
+        if self.tree is None:
+            out.fill(0.0)
+            return np.inf
+        idx = self.tree.query_ball_point(p, self.d_c + self.d0)
+        m = len(idx)
+        if not m:
+            out.fill(0.0)
+            return self.d0
+        diff, rho, e, y, kv, band, f, kv_col, band_col = scratch.views(m)
+        np.take(self.points, idx, axis=0, out=diff, mode="clip")
+        np.subtract(p, diff, out=diff)                            # x - c
+        np.einsum("ij,ij->i", diff, diff, out=rho)
+        np.sqrt(rho, out=rho)
+        np.subtract(rho, self.d_c, out=e)
+        gap = float(e.min())
+        if gap <= 0.0:
+            out.fill(0.0)
+            return gap
+        np.less(e, self.d0, out=band)
+        # every point in reach has 0 < e <= d0 (+ rounding): the band's formulas are finite on
+        # all of them, and only the band's rows are kept, as in `_forces`
+        np.subtract(2 * self.d0, e, out=y)
+        np.multiply(e, y, out=y)
+        np.divide(y, self.d0**2, out=y)                           # 1 - psi
+        np.divide(1.0, y, out=kv)
+        np.log(kv, out=kv)
+        np.multiply(2 * self.k, kv, out=kv)
+        np.multiply(self.d0**2, y, out=y)
+        np.divide(kv, y, out=kv)
+        np.subtract(self.d0, e, out=y)
+        np.multiply(kv, y, out=kv)
+        np.divide(kv, rho, out=kv)
+        f.fill(0.0)
+        np.multiply(kv_col, diff, out=f, where=band_col)
+        np.sum(f, axis=0, out=out)
+        return min(gap, self.d0)
 
     def capsule(self, p_t, n_t, length: float) -> tuple[np.ndarray, float]:
         """(F_r (6,) at the tip, gap) for the segment p_t - n_t L sigma, sigma in [0, 1], of radius r."""

@@ -17,12 +17,14 @@ gap >= margin for the whole period. Anything non-finite, singular or already ins
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from certiloop.studies.rcm.arm import DH_D, guard_speed, link_frames
 from certiloop.studies.rcm.cloud import CloudBarrier
+from certiloop.studies.rcm.workspace import StepWorkspace
 
 # ATI Mini40 ranges (force N, torque N m): a larger reading is clipped, a non-finite one refused.
 FORCE_RANGE, TORQUE_RANGE = 240.0, 4.0
@@ -180,68 +182,104 @@ class RcmAdmittance:
 
     def step(self, wrench=None, q_measured=None) -> StepResult:
         """One period from the human wrench (default: `self.wrench`). With `q_measured`, a robot
-        more than TRACKING_TOL from the last q_d (the proofs assume it tracks) gives a hold."""
-        try:
-            F_h = np.asarray(self.wrench if wrench is None else wrench, dtype=float).reshape(6)
-        except (TypeError, ValueError):
-            return self._hold("malformed human wrench (need 6 numbers)")
-        if not np.all(np.isfinite(F_h)):
+        more than TRACKING_TOL from the last q_d (the proofs assume it tracks) gives a hold.
+
+        The arithmetic runs in the controller's `StepWorkspace`: no arrays are allocated but the
+        new state and the result, which the caller keeps (tests/studies/rcm/test_rcm_workspace.py
+        holds the step written with fresh arrays, as the formulas read, and compares the bits)."""
+        ws = self._workspace()
+        F_h = ws.F_h
+        w = self.wrench if wrench is None else wrench
+        if type(w) is np.ndarray and w.shape == (6,) and w.dtype == np.float64:
+            np.copyto(F_h, w)
+        else:
+            try:
+                np.copyto(F_h, np.asarray(w, dtype=float).reshape(6))
+            except (TypeError, ValueError):
+                return self._hold("malformed human wrench (need 6 numbers)")
+        if not np.isfinite(F_h, out=ws.finite6).all():
             return self._hold("non-finite human wrench")
         if q_measured is not None:
-            try:
-                q_msr = np.asarray(q_measured, dtype=float).reshape(7)
-            except (TypeError, ValueError):
-                return self._hold("malformed measured joints (need 7 numbers)")
-            if not np.max(np.abs(q_msr - self.q)) <= TRACKING_TOL:      # NaN fails this too
+            q_msr = q_measured
+            if not (type(q_msr) is np.ndarray and q_msr.shape == (7,) and q_msr.dtype == np.float64):
+                try:
+                    q_msr = np.asarray(q_measured, dtype=float).reshape(7)
+                except (TypeError, ValueError):
+                    return self._hold("malformed measured joints (need 7 numbers)")
+            np.subtract(q_msr, self.q, out=ws.dq)
+            if not np.abs(ws.dq, out=ws.dq).max() <= TRACKING_TOL:      # NaN fails this too
                 return self._hold("tracking error: the robot is not following q_d")
-        F_h = _clip_wrench(F_h)
-        g, dt = self.gains, self.dt
-        m = mapping(self.q, self.p_c, self.tool_length)
-        if not m.sigma_min > SIGMA_FLOOR:
-            return self._hold("Jacobian near singular", m.x_c)
+        _clip_wrench_into(F_h)
+        dt = self.dt
+        sigma_min = ws.mapping(self.q, self.p_c, self.tool_length)
+        if not sigma_min > SIGMA_FLOOR:
+            return self._hold("Jacobian near singular", ws.x_c.copy())
         if self.mode == "tip":
-            f, gap = self.barrier.tip(m.p_t)
-            F_r = np.concatenate([f, np.zeros(3)])
+            gap = self.barrier.tip_into(ws.p_t, ws.F_r_force, ws.scratch_for(self.barrier))
         else:
-            F_r, gap = self.barrier.capsule(m.p_t, m.n, self.tool_length)
+            F_r, gap = self.barrier.capsule(ws.p_t, ws.n, self.tool_length)
+            np.copyto(ws.F_r, F_r)
         if gap <= 0.0:
             self.penetrated = True
-            return self._hold("inside the forbidden region", m.x_c, gap)
+            return self._hold("inside the forbidden region", ws.x_c.copy(), gap)
         qd = self.qdot
-        if self._prev is None:
-            A_dot, Zd_dot = np.zeros_like(m.A), np.zeros_like(m.Z_dag_T)
-        else:
-            A_dot, Zd_dot = (m.A - self._prev[0]) / dt, (m.Z_dag_T - self._prev[1]) / dt
-        xc_dot, xf_dot = m.A @ qd, m.Z_dag_T @ qd
-        F_th = np.concatenate([F_h[:3], F_h[3:] + hat(m.p_e - m.p_t) @ F_h[:3]])   # T_te F_h (22)
-        D_f = variable_damping(xf_dot, m.Z_x @ F_r, g)
-        h = A_dot @ qd + 2 * g.alpha * xc_dot + g.beta**2 * m.x_c
-        u = D_f * xf_dot + Zd_dot @ qd
-        force = m.Z @ (m.J.T @ (F_th + F_r))
-        qdd = -(m.A_dag @ h + m.Z.T @ u) + m.Z.T @ force
-        if self.integrator == "euler":
-            q_next, qd_next = self.q + dt * qd, qd + dt * qdd
-        else:
-            qd_next = qd + dt * qdd
-            q_next = self.q + dt * qd_next
+        qdd = ws.acceleration(qd, self._prev is not None, dt)
+        q_next, qd_next = ws.q_next, ws.qd_next
+        np.multiply(dt, qdd, out=qd_next)
+        np.add(qd, qd_next, out=qd_next)
+        np.multiply(dt, qd if self.integrator == "euler" else qd_next, out=q_next)
+        np.add(self.q, q_next, out=q_next)
         scale = 1.0
         if self.guard:
-            scale = self._guard_scale(q_next - self.q, gap)
+            np.subtract(q_next, self.q, out=ws.dq)
+            scale = self._guard_scale(ws.dq, gap)
             if scale < 1.0:
-                q_next = self.q + scale * (q_next - self.q)
-                qd_next = scale * qd_next
-        if not (np.all(np.isfinite(q_next)) and np.all(np.isfinite(qd_next))):
-            return self._hold("non-finite step", m.x_c, gap)
-        if np.any(np.abs(q_next) > JOINT_LIMITS):
-            return self._hold("joint limit", m.x_c, gap)
-        self._prev = (m.A, m.Z_dag_T)
-        self.q, self.qdot = q_next, qd_next
+                np.subtract(q_next, self.q, out=ws.dq)
+                np.multiply(scale, ws.dq, out=ws.dq)
+                np.add(self.q, ws.dq, out=q_next)
+                np.multiply(scale, qd_next, out=qd_next)
+        if not (np.isfinite(q_next, out=ws.finite7).all() and np.isfinite(qd_next, out=ws.finite7).all()):
+            return self._hold("non-finite step", ws.x_c.copy(), gap)
+        np.abs(q_next, out=ws.abs7)
+        if np.greater(ws.abs7, JOINT_LIMITS, out=ws.finite7).any():
+            return self._hold("joint limit", ws.x_c.copy(), gap)
+        np.copyto(ws.prev_A, ws.A)
+        np.copyto(ws.prev_Z_dag_T, ws.Z_dag_T)
+        self._prev = ws.prev
+        self.q, self.qdot = q_next.copy(), qd_next.copy()
         reason = "" if scale == 1.0 else "limited by the guard"
-        return StepResult(q_next.copy(), qd_next.copy(), m.x_c, gap, scale, True, reason)
+        return StepResult(q_next.copy(), qd_next.copy(), ws.x_c.copy(), gap, scale, True, reason)
+
+    def __getstate__(self) -> dict:
+        """Copies and pickles carry the state, not the buffers: the previous tick's A and Z_dag_T
+        as arrays of their own (the buffers are this controller's, rewritten every tick)."""
+        state = dict(self.__dict__)
+        state.pop("_ws", None)
+        if self._prev is not None:
+            state["_prev"] = (self._prev[0].copy(), self._prev[1].copy())
+        return state
+
+    def _workspace(self) -> StepWorkspace:
+        """This controller's buffers (a copied controller gets its own, with the previous tick's
+        A and Z_dag_T), with the current gain table."""
+        ws = self.__dict__.get("_ws")
+        if ws is None or ws.owner() is not self:
+            ws = StepWorkspace(self.gains)
+            ws.owner = weakref.ref(self)
+            self.__dict__["_ws"] = ws
+        if self._prev is not None and self._prev is not ws.prev:   # a copied controller's
+            np.copyto(ws.prev_A, self._prev[0])
+            np.copyto(ws.prev_Z_dag_T, self._prev[1])
+            self._prev = ws.prev
+        if ws.gains is not self.gains:
+            ws.set_gains(self.gains)
+        return ws
 
     def _guard_scale(self, dq: np.ndarray, gap: float) -> float:
         """k in [0, 1] with k * sweep <= gap - margin, from the proved guard_speed."""
-        sweep = float(np.abs(dq) @ self.lever)          # any tool point moves at most this far
+        ws = self.__dict__.get("_ws")
+        # any tool point moves at most this far
+        sweep = float((np.abs(dq) if ws is None else np.abs(dq, out=ws.abs7)) @ self.lever)
         if sweep == 0.0 or math.isinf(gap):
             return 1.0
         if not math.isfinite(sweep):
@@ -254,11 +292,10 @@ class RcmAdmittance:
         return k
 
 
-def _clip_wrench(F: np.ndarray) -> np.ndarray:
-    f, t = F[:3], F[3:]
-    nf, nt = math.hypot(*f), math.hypot(*t)             # hypot: no overflow for huge readings
+def _clip_wrench_into(F: np.ndarray) -> None:
+    """F clipped to the sensor's ranges, in place (hypot: no overflow for huge readings)."""
+    nf, nt = math.hypot(F[0], F[1], F[2]), math.hypot(F[3], F[4], F[5])
     if nf > FORCE_RANGE:
-        f = f * (FORCE_RANGE / nf)
+        np.multiply(F[:3], FORCE_RANGE / nf, out=F[:3])
     if nt > TORQUE_RANGE:
-        t = t * (TORQUE_RANGE / nt)
-    return np.concatenate([f, t])
+        np.multiply(F[3:], TORQUE_RANGE / nt, out=F[3:])

@@ -5,6 +5,7 @@ both decide as the model does, by hand in exact rationals."""
 
 import math
 import subprocess
+import sys
 from fractions import Fraction
 
 import numpy as np
@@ -118,8 +119,8 @@ def test_cli_extract_c_with_t_and_lower_compiles(tmp_path, monkeypatch):
         "              branch('go', check(p < t), assign(a, lower)))\n"
         "MODEL = Theorem('tests.t_lower', lower >= 0, loop(seq(step, ode({p: a}))), lower >= 0)\n")
     out = tmp_path / "c"
-    done = subprocess.run(["certiloop", "extract", f"{model}:MODEL", "--lang", "c", "-o", str(out)],
-                          capture_output=True, text=True, cwd=tmp_path)
+    done = subprocess.run([sys.executable, "-m", "certiloop.cli", "extract", f"{model}:MODEL",
+                           "--lang", "c", "-o", str(out)], capture_output=True, text=True, cwd=tmp_path)
     if done.returncode == 2 and "MODEL" in done.stderr:
         pytest.skip(f"model loading: {done.stderr.strip()}")
     assert done.returncode == 0, done.stderr

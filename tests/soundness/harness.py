@@ -181,8 +181,9 @@ def _start_server(ctx) -> None:
 
 
 def run_all(module: str, cases: list[Case], only: set[str] | None = None) -> dict[str, dict[str, Any]]:
-    """Outcomes of every case of a theme module (or of those whose id is in `only`), each in its own process (so a hang or a
-    crash of one cannot take the others down), SOUNDNESS_JOBS (default: cores) at once.
+    """Outcomes of every case of a theme module (or of those whose id is in `only`), each in
+    its own process (so a hang or a crash of one cannot take the others down), SOUNDNESS_JOBS
+    (default: cores) at once.
 
     The processes are forked from a forkserver that has imported the engine once (fast,
     and safe even if this pytest process runs threads). SOUNDNESS_INPROCESS=1 runs the

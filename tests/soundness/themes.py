@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 from .harness import Case, record, run_all
@@ -17,7 +19,13 @@ def theme_tests(module, theme: str):
         selected = {item.callspec.params["case"].id for item in request.session.items
                     if item.module is request.module and item.originalname == "test_engine_outcome_allowed"
                     and not item.get_closest_marker("skip")}
-        return run_all(module.__name__, cases, only=selected)
+        outcomes = run_all(module.__name__, cases, only=selected)
+        if os.environ.get("SOUNDNESS_TIMES"):  # each case's own time, for tests/tiers.py
+            with open(os.environ["SOUNDNESS_TIMES"], "a") as out:
+                for case_id, outcome in outcomes.items():
+                    out.write(f"{outcome['seconds']:.2f}s case {request.node.nodeid}::"
+                              f"test_engine_outcome_allowed[{case_id}]\n")
+        return outcomes
 
     @pytest.mark.parametrize("case", cases, ids=ids)
     def test_witness_confirms_label(case: Case):
