@@ -30,7 +30,7 @@ def main(prefixes: list[str]) -> None:
             if result.proof is None:
                 print(f"{name:45s} prove {result.verdict:8s} {proving:8.2f} s", flush=True)
                 continue
-            doc = json.loads(json.dumps(certificate(*result.proof)))
+            doc = json.loads(json.dumps(certificate(*result.proof, result.obligations)))
             start = time.perf_counter()
             outcome = check(doc)
             checking = time.perf_counter() - start

@@ -76,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
                 if args.certificate and result.proof is not None:
                     from certiloop.proofs.engine.certify import write_certificate
 
-                    write_certificate(*result.proof, Path(args.certificate))
+                    write_certificate(*result.proof, Path(args.certificate), result.obligations)
                 results.append(result)
                 docs.append(result.to_json())
     except KeyboardInterrupt:

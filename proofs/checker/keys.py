@@ -22,6 +22,13 @@ class Malformed(ValueError):
     """The certificate cannot be read: exit 2."""
 
 
+def fields(obj: object, names: set[str], where: str) -> dict:
+    if not isinstance(obj, dict) or set(obj) != names:
+        got = sorted(obj) if isinstance(obj, dict) else type(obj).__name__
+        raise Malformed(f"{where} must have exactly the fields {sorted(names)}, got {got}")
+    return obj
+
+
 def literal(text: str):
     """The value of a key's text; Malformed for anything but tuples, constants and Fraction(n, d)."""
     if not isinstance(text, str):
