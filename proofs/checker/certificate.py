@@ -62,8 +62,8 @@ def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
     try:
         theorem, odes = _read(doc)
         derived = Derivation(theorem, odes).run()
-        decided = _compare(doc, derived)
-        failed = decide_all([script(f) for f in decided], rlimit)
+        texts = [script(f) for f in _compare(doc, derived)]
+        failed = decide_all(texts, rlimit)
         if failed is not None:
             leaf = derived[failed[0]]
             raise Rejected(f"leaf {leaf.id} ({' / '.join(leaf.path)}): {failed[1]}")
@@ -81,7 +81,7 @@ def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
     besides = "; its non-blocking check is not in the certificate" * theorem.check_nonblocking
     return Outcome("accepted", f"accepted: {name} ({digest}): assumptions -> [program] guarantee, "
                    f"{len(derived)} leaves{besides}",
-                   tuple((leaf.id, script(f)) for leaf, f in zip(derived, decided)))
+                   tuple((leaf.id, text) for leaf, text in zip(derived, texts)))
 
 
 def _texts(leaves: list[Leaf]) -> tuple[tuple[str, str], ...]:

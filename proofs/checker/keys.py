@@ -9,6 +9,7 @@ names) and must print back to exactly the text it came from.
 from __future__ import annotations
 
 import ast
+import functools
 from fractions import Fraction
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Count, Each, Havoc, Loop, Program, Seq, Test
@@ -78,9 +79,24 @@ def node(key) -> Node:
         payload = program(payload)
     elif op == "const" and not isinstance(payload, Fraction):
         raise Malformed(f"a constant's value must be Fraction(n, d), got {payload!r}")
-    return Node(op, tuple(node(a) for a in args), sort(sort_text), payload)
+    n = Node(op, tuple(node(a) for a in args), sort(sort_text), payload)
+    if n.sort != _wanted(n):  # one spelling: a node's sort is the one its constructor gives it
+        raise Malformed(f"the node {key!r:.60} is not of sort {_wanted(n)}")
+    return n
 
 
+def _wanted(n: Node) -> Sort:
+    if n.op in ("+", "*", "neg", "^"):
+        return INT if all(a.sort == INT for a in n.args) else REAL
+    if n.op in ("cmp", "and", "or", "not", "implies", "iff", "forall", "exists", "true", "false", "box",
+                "diamond"):
+        return BOOL
+    if n.op in ("/", "const"):
+        return n.sort if n.op == "const" and n.sort == INT else REAL
+    return n.args[0].sort if n.op == "store" else n.sort
+
+
+@functools.lru_cache(maxsize=65536)  # a weakening's instance terms recur in every leaf
 def from_text(text: str, want_formula: bool = False) -> Node:
     """The node whose key's text this is, exactly (another text for the same node is malformed:
     a certificate holds one spelling of each thing, so any change to it is seen)."""

@@ -22,20 +22,8 @@ import itertools
 
 import sympy
 
-from certiloop.models.lang.terms import (
-    BOOL,
-    REAL,
-    And,
-    Iff,
-    Implies,
-    Node,
-    Not,
-    Var,
-    cmp,
-    free_vars,
-    rebuild,
-    substitute,
-)
+from certiloop.models.lang import terms as lang
+from certiloop.models.lang.terms import REAL, And, Implies, Node, Var, cmp, free_vars, rebuild, substitute
 from certiloop.proofs.checker import keys
 from certiloop.proofs.checker.derive import Rejected
 from certiloop.proofs.checker.flows import NotCheckable, Table, to_sympy
@@ -62,7 +50,8 @@ def weakened(leaf: Node, record: object, where: str) -> Node:
             raise Rejected(f"{where}: the abbreviation {entry[0]} is given twice")
         sigma[entry[0]] = keys.from_text(entry[1])
     facts = [keys.from_text(t, want_formula=True) for t in _list(rec["facts"], where)]
-    taken, used = free_vars(f), free_vars(w)
+    # each symbol must occur outside the congruences, so that its definition is checked on an atom
+    taken, used = free_vars(f), free_vars(w.args[1] if facts and w.op == "implies" else w)
     index = {n for n, t in undo.items() if _index_sort(t.sort)}
     for name, d in sigma.items():
         if name in taken or name not in used or used[name].sort != d.sort or not d.sort.is_numeric \
@@ -143,11 +132,11 @@ def _instance(h: Node, terms: list[Node]) -> Node:
 
 
 def _index_sort(s) -> bool:
-    return not s.is_array and s not in (REAL, BOOL) and not s.is_numeric
+    return not s.is_array and s not in (REAL, lang.BOOL) and not s.is_numeric
 
 
 def _eq(a: Node, b: Node) -> Node:
-    return Iff(a, b) if a.sort == BOOL else cmp("==", a, b)
+    return lang.Iff(a, b) if a.sort == lang.BOOL else cmp("==", a, b)
 
 
 def read_name(read: Node) -> str:
@@ -212,7 +201,7 @@ def _no_stores(f: Node) -> Node:
     same = And(*(_eq(w, r) for w, r in zip(writes, reads)))
     other = Node("select", (base, *reads), read.sort)
     return And(Implies(same, _no_stores(_replace(f, read, value))),
-               Implies(Not(same), _no_stores(_replace(f, read, other))))
+               Implies(lang.Not(same), _no_stores(_replace(f, read, other))))
 
 
 def _read_over_write(n: Node) -> Node | None:
