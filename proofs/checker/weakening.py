@@ -1,21 +1,12 @@
 """A leaf proved through a weakening (format v2): a recorded formula W whose validity implies
-the leaf's, built by the prover's instantiation, lowering and abstraction. Nothing recorded
-is trusted; for the leaf F the checker re-derives or checks each step:
-
-  instantiate  F's goal split and skolemised here (fresh constants), and each hypothesis
-               recorded as kept (its index) or as an instance (index, terms) rebuilt here by
-               substitution: F1 = (kept and instances -> goal) implies F.
-  lower        recomputed here from F1: reads over writes split, reads as symbols, index
-               symbols as reals, Ackermann's congruences as hypotheses (F2, valid iff F1 is).
-  abstract     W must be (congruences -> F2) with each atom rewritten: each atom of W, its
-               abbreviation symbols replaced by their definitions, is the atom of F2 there or
-               the same comparison of a polynomial identical to it (exact, sympy). The
-               symbols are fresh, no quantifier of W binds them or their definitions'
-               symbols, and each congruence, read back over arrays, is one (`_congruence`).
-W valid over the reals is W valid over any index sort because the symbols standing for index
-values occur in W only in equalities between them (`_only_compared`).
+the leaf's, built by the prover's instantiation, lowering and abstraction. Nothing recorded is
+trusted (README.md, "Weakenings"): instances are rebuilt by substitution into the leaf's own
+hypotheses after its goal is skolemised here; the lowering is recomputed here; W must then be
+(congruences -> that formula) with each atom the same, or, once W's abbreviation symbols are
+replaced by their definitions, the same comparison of an identical polynomial. Symbols that
+stand for index values occur in W only in equalities between them, so W valid over the reals
+is W valid over any index sort.
 """
-
 from __future__ import annotations
 
 import itertools
@@ -78,9 +69,8 @@ def _list(x: object, where: str) -> list:
 
 
 def instantiated(f: Node, entries: object) -> Node:
-    hyps: list[Node] = []
     made: list[Node] = []
-    goal = _split(f, hyps, made)
+    hyps, goal = _split(f, made)
     if set(free_vars(f)) & {c.payload for c in made}:
         raise Rejected("a skolem constant of the goal is not fresh")
     out = []
@@ -93,25 +83,19 @@ def instantiated(f: Node, entries: object) -> Node:
     return Implies(And(*out), goal)
 
 
-def _split(goal: Node, hyps: list[Node], made: list[Node]) -> Node:
-    """The goal with ∀ skolemised (x@skN, N counting) and implications' left sides in hyps."""
+def _split(goal: Node, made: list[Node]) -> tuple[list[Node], Node]:
+    """(hypotheses, goal): ∀ skolemised (x@skN, N counting), implications' left sides taken."""
     if goal.op == "forall":
-        env = {}
-        for v in goal.payload:
-            made.append(Var(f"{v.payload.split('@')[0]}@sk{len(made) + 1}", v.sort))
-            env[v.payload] = made[-1]
-        return _split(substitute(goal.args[0], env), hyps, made)
+        env = {v.payload: Var(f"{v.payload.split('@')[0]}@sk{len(made) + n}", v.sort)
+               for n, v in enumerate(goal.payload, 1)}
+        made.extend(env.values())
+        return _split(substitute(goal.args[0], env), made)
     if goal.op == "implies":
-        hyps.extend(goal.args[0].args if goal.args[0].op == "and" else (goal.args[0],))
-        return _split(goal.args[1], hyps, made)
+        hyps, rest = _split(goal.args[1], made)
+        return [*(goal.args[0].args if goal.args[0].op == "and" else (goal.args[0],)), *hyps], rest
     if goal.op == "and":
-        parts = []
-        for g in goal.args:
-            local: list[Node] = []
-            part = _split(g, local, made)
-            parts.append(Implies(And(*local), part) if local else part)
-        return And(*parts)
-    return goal
+        return [], And(*(Implies(And(*h), g) for h, g in (_split(part, made) for part in goal.args)))
+    return [], goal
 
 
 def _instance(h: Node, terms: list[Node]) -> Node:
