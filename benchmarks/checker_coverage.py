@@ -35,7 +35,7 @@ def main(prefixes: list[str]) -> None:
             outcome = check(doc)
             checking = time.perf_counter() - start
             print(f"{name:45s} prove {result.verdict:8s} {proving:8.2f} s  check {outcome.status:9s} "
-                  f"{checking:7.2f} s  {outcome.message[:150]}", flush=True)
+                  f"{checking:7.2f} s  {outcome.message[:400]}", flush=True)
 
 
 if __name__ == "__main__":

@@ -8,8 +8,8 @@ names) and must print back to exactly the text it came from.
 
 from __future__ import annotations
 
-import ast
 import functools
+import re
 from fractions import Fraction
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Count, Each, Havoc, Loop, Program, Seq, Test
@@ -30,31 +30,33 @@ def fields(obj: object, names: set[str], where: str) -> dict:
     return obj
 
 
+# a key's text: tuples of strings (without escapes), integers, None, booleans and Fraction(n, d)
+TOKEN = re.compile(r"\s*(?:(\()|(\))|,|'([^'\\]*)'|\"([^\"\\]*)\"|(-?\d+)|(None|True|False)"
+                   r"|Fraction\((-?\d+), ([1-9]\d*)\))")
+WORDS = {"None": None, "True": True, "False": False}
+
+
 def literal(text: str):
-    """The value of a key's text; Malformed for anything but tuples, constants and Fraction(n, d)."""
+    """The value of a key's text; Malformed for anything but tuples, constants and Fraction(n, d).
+    Lenient about commas: the node it makes must print back to exactly this text."""
     if not isinstance(text, str):
         raise Malformed(f"expected a key's text, got {type(text).__name__}")
-    try:
-        tree = ast.parse(text, mode="eval").body
-    except SyntaxError as exc:
-        raise Malformed(f"unreadable key text ({exc.msg})") from None
-    return _value(tree)
-
-
-def _value(n: ast.AST):
-    if isinstance(n, ast.Tuple):
-        return tuple(_value(e) for e in n.elts)
-    if isinstance(n, ast.Constant) and (n.value is None or isinstance(n.value, (str, int, bool))):
-        return n.value
-    if isinstance(n, ast.UnaryOp) and isinstance(n.op, ast.USub) and isinstance(n.operand, ast.Constant) \
-            and type(n.operand.value) is int:
-        return -n.operand.value
-    if (isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == "Fraction"
-            and len(n.args) == 2 and not n.keywords):
-        num, den = (_value(a) for a in n.args)
-        if type(num) is int and type(den) is int and den > 0:
-            return Fraction(num, den)
-    raise Malformed(f"unexpected element `{ast.unparse(n)}` in a key's text")
+    stack, pos = [[]], 0
+    while pos < len(text):
+        m = TOKEN.match(text, pos)
+        if m is None or m.end() == pos:
+            raise Malformed(f"unexpected {text[pos:pos + 30]!r} in a key's text")
+        pos, (opened, closed, single, double, number, word, num, den) = m.end(), m.groups()
+        if opened or closed:
+            if closed and len(stack) < 2:
+                raise Malformed("unbalanced parentheses in a key's text")
+            stack.append([]) if opened else stack[-2].append(tuple(stack.pop()))
+        elif m.lastindex is not None:
+            stack[-1].append(single if single is not None else double if double is not None else
+                             int(number) if number else WORDS[word] if word else Fraction(int(num), int(den)))
+    if len(stack) != 1 or len(stack[0]) != 1:
+        raise Malformed("a key's text must be one value")
+    return stack[0][0]
 
 
 def sort(text) -> Sort:

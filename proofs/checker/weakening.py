@@ -41,8 +41,7 @@ def weakened(leaf: Node, record: object, where: str) -> Node:
             raise Rejected(f"{where}: the abbreviation {entry[0]} is given twice")
         sigma[entry[0]] = keys.from_text(entry[1])
     facts = [keys.from_text(t, want_formula=True) for t in _list(rec["facts"], where)]
-    # each symbol must occur outside the congruences, so that its definition is checked on an atom
-    taken, used = free_vars(f), free_vars(w.args[1] if facts and w.op == "implies" else w)
+    taken, used = free_vars(f), free_vars(w)
     index = {n for n, t in undo.items() if _index_sort(t.sort)}
     for name, d in sigma.items():
         if name in taken or name not in used or used[name].sort != d.sort or not d.sort.is_numeric \
