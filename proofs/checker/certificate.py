@@ -62,7 +62,7 @@ def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
     try:
         theorem, odes = _read(doc)
         derived = Derivation(theorem, odes).run()
-        texts = [script(f) for f in _compare(doc, derived)]
+        texts = _compare(doc, derived)
         failed = decide_all(texts, rlimit)
         if failed is not None:
             leaf = derived[failed[0]]
@@ -74,7 +74,8 @@ def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
         return Outcome("rejected", f"rejected: {text}")
     except Rejected as exc:
         return Outcome("rejected", f"rejected: {exc}", _texts(derived))
-    except (ValueError, TypeError, KeyError, AttributeError, RecursionError) as exc:  # never an acceptance
+    except (ValueError, TypeError, KeyError, AttributeError, RecursionError, AssertionError) as exc:
+        # never an acceptance
         return Outcome("rejected", f"rejected: the checker could not follow the certificate ({exc!r:.200})")
     name, digest = doc["theorem"]["name"], doc["theorem"]["hash"]
     # the safety claim, as `prove` reports it; a theorem's non-blocking check is a separate proof
@@ -278,8 +279,8 @@ def tree(paths: list[tuple[str, str]]) -> dict:
     return root
 
 
-def _compare(doc: dict, derived: list[Leaf]) -> list[Node]:
-    """The formula to decide for each leaf: the leaf's own, or its checked weakening (v2)."""
+def _compare(doc: dict, derived: list[Leaf]) -> list[str]:
+    """The SMT-LIB text to decide for each leaf: the leaf's own, or its checked weakening's (v2)."""
     leaves, v2, out = doc["leaves"], doc["format"] == FORMAT_V2, []
     if not isinstance(leaves, list):
         raise Malformed("leaves must be a list")
@@ -298,7 +299,9 @@ def _compare(doc: dict, derived: list[Leaf]) -> list[Node]:
         weak = got.get("weakening")
         if got["decided"] != (DECIDED if weak is None else WEAKENED):
             raise NotCheckable(f"decision {got['decided']!r} not checkable yet")
-        out.append(leaf.formula if weak is None else weakened(leaf.formula, weak, where))
+        if weak is not None:
+            weakened(leaf.formula, weak, where)  # checked to imply the leaf, its text compared
+        out.append(got["smtlib"] if weak is None else weak["smtlib"])
     return out
 
 

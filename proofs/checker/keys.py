@@ -34,6 +34,9 @@ def fields(obj: object, names: set[str], where: str) -> dict:
 TOKEN = re.compile(r"\s*(?:(\()|(\))|,|'([^'\\]*)'|\"([^\"\\]*)\"|(-?\d+)|(None|True|False)"
                    r"|Fraction\((-?\d+), ([1-9]\d*)\))")
 WORDS = {"None": None, "True": True, "False": False}
+OPS = {"var", "const", "+", "*", "neg", "/", "^", "select", "store", "ite", "cmp", "and", "or", "not",
+       "implies", "iff", "forall", "exists", "true", "false", "box", "diamond"}
+COMPARISONS = {"==", "!=", "<", "<=", ">", ">="}
 
 
 def literal(text: str):
@@ -73,7 +76,7 @@ def node(key) -> Node:
         op, sort_text, payload, args = key
     except (TypeError, ValueError):
         raise Malformed(f"a node's key must be (op, sort, payload, args), got {key!r:.80}") from None
-    if not isinstance(op, str) or not isinstance(args, tuple):
+    if op not in OPS or not isinstance(args, tuple) or op == "cmp" and payload not in COMPARISONS:
         raise Malformed(f"bad node key {key!r:.80}")
     if op in ("forall", "exists"):
         payload = tuple(node(v) for v in payload)

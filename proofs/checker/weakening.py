@@ -15,32 +15,32 @@ import sympy
 
 from certiloop.models.lang import terms as lang
 from certiloop.models.lang.terms import REAL, And, Implies, Node, Var, cmp, free_vars, rebuild, substitute
+from certiloop.proofs.arith.smtlib import script
 from certiloop.proofs.checker import keys
 from certiloop.proofs.checker.derive import Rejected
 from certiloop.proofs.checker.flows import NotCheckable, Table, to_sympy
 from certiloop.proofs.checker.keys import Malformed, fields
 
-FIELDS = {"instances", "lowered", "abbreviations", "facts", "formula"}
+FIELDS = {"instances", "lowered", "abbreviations", "facts", "atoms", "smtlib"}
 BINDERS = ("forall", "exists")
 CONNECTIVES = ("and", "or", "not", "implies", "iff", *BINDERS)
 
 
 def weakened(leaf: Node, record: object, where: str) -> Node:
-    """The recorded weaker formula W, once checked to imply `leaf` (else Rejected)."""
+    """The weaker formula W the record describes, built here and checked to imply `leaf`."""
     rec = fields(record, FIELDS, f"{where}: the weakening")
     f = leaf if rec["instances"] is None else instantiated(leaf, rec["instances"])
     if not isinstance(rec["lowered"], bool):
         raise Malformed(f"{where}: `lowered` must be true or false")
     f, undo = lowered(f) if rec["lowered"] else (f, {})
-    w = keys.from_text(rec["formula"], want_formula=True)
-    sigma: dict[str, Node] = {}
-    for entry in _list(rec["abbreviations"], where):
-        if not (isinstance(entry, list) and len(entry) == 2 and isinstance(entry[0], str)):
-            raise Malformed(f"{where}: an abbreviation must be [symbol, definition's key text]")
-        if entry[0] in sigma:
-            raise Rejected(f"{where}: the abbreviation {entry[0]} is given twice")
-        sigma[entry[0]] = keys.from_text(entry[1])
+    sigma, atoms = _pairs(rec["abbreviations"], str, where), _pairs(rec["atoms"], int, where)
     facts = [keys.from_text(t, want_formula=True) for t in _list(rec["facts"], where)]
+    watched = set(sigma).union(*(free_vars(d) for d in sigma.values()))
+    seen = [0]
+    w = Implies(And(*facts), _rewritten(f, {k: keys.from_text(a, True) for k, a in atoms.items()}, sigma,
+                                        watched, seen, True))
+    if any(k >= seen[0] for k in atoms):
+        raise Rejected(f"{where}: a rewritten atom's index is past the formula's {seen[0]} atoms")
     taken, used = free_vars(f), free_vars(w)
     index = {n for n, t in undo.items() if _index_sort(t.sort)}
     for name, d in sigma.items():
@@ -50,12 +50,23 @@ def weakened(leaf: Node, record: object, where: str) -> Node:
                            "standing for a term of its sort")
     if not _only_compared(w, index, undo):
         raise Rejected(f"{where}: a symbol standing for an index value is used in arithmetic")
-    watched = set(sigma).union(*(free_vars(d) for d in sigma.values()))
-    if not _match(w, Implies(And(*facts), f), sigma, watched):
-        raise Rejected(f"{where}: the weaker formula is not the leaf with these steps")
     if not all(_congruence(substitute(substitute(fact, sigma), undo)) for fact in facts):
         raise Rejected(f"{where}: a congruence of the abstraction is not one")
+    if rec["smtlib"] != script(w):  # every choice recorded is seen in the formula decided
+        raise Rejected(f"{where}: the recorded weaker formula is not the one these steps give")
     return w
+
+
+def _pairs(x: object, kind: type, where: str) -> dict:
+    """[[key, key text], ...] as a dict (abbreviations: symbol -> its definition's node)."""
+    out: dict = {}
+    for entry in _list(x, where):
+        if not (isinstance(entry, list) and len(entry) == 2 and type(entry[0]) is kind):
+            raise Malformed(f"{where}: expected [{kind.__name__}, key text] pairs, got {entry!r:.60}")
+        if entry[0] in out:
+            raise Rejected(f"{where}: {entry[0]} is given twice")
+        out[entry[0]] = keys.from_text(entry[1]) if kind is str else entry[1]
+    return out
 
 
 def _list(x: object, where: str) -> list:
@@ -202,20 +213,23 @@ def _replace(n: Node, old: Node, new: Node) -> Node:
 # --------------------------------------------------------------------------- abstract
 
 
-def _match(w: Node, f: Node, sigma: dict[str, Node], watched: set[str]) -> bool:
-    """W has F's connectives and quantifiers, and each atom of W is F's there once its
-    abbreviations are replaced by their definitions (an identity of polynomials)."""
-    if w.same(f):
-        return True
-    if w.op == f.op == "cmp" and w.payload == f.payload:
-        mine = substitute(w, sigma)
-        return mine.same(f) or _identity(mine, f)
-    if w.op != f.op or w.op not in CONNECTIVES or len(w.args) != len(f.args):
-        return False
-    if w.op in BINDERS and ([v.key for v in w.payload] != [v.key for v in f.payload]
-                            or watched & {v.payload for v in w.payload}):
-        return False
-    return all(_match(a, b, sigma, watched) for a, b in zip(w.args, f.args))
+def _rewritten(n: Node, atoms: dict[int, Node], sigma: dict[str, Node], watched: set[str], seen: list[int],
+               free: bool) -> Node:
+    """n with its k-th atom (in pre-order) replaced by atoms[k]: the same comparison, which is
+    n's atom once the abbreviations are replaced by their definitions, or compares a polynomial
+    identical to it; never under a quantifier that binds a symbol of the abbreviations."""
+    if n.op in CONNECTIVES:
+        free = free and not (n.op in BINDERS and watched & {v.payload for v in n.payload})
+        return rebuild(n, tuple(_rewritten(a, atoms, sigma, watched, seen, free) for a in n.args))
+    seen[0] += 1
+    new = atoms.get(seen[0] - 1)
+    if new is None:
+        return n
+    mine = substitute(new, sigma)
+    if not (free and new.op == n.op == "cmp" and new.payload == n.payload
+            and (mine.same(n) or _identity(mine, n))):
+        raise Rejected(f"the rewritten atom {seen[0] - 1} is not `{n}` in terms of the abbreviations")
+    return new
 
 
 def _identity(a: Node, b: Node) -> bool:

@@ -56,7 +56,7 @@ def _text(n: Node) -> str:
 def _weakening(ob: Obligation, backend: str) -> dict | None:
     """The weakening `backend` names (as proofs/core/weaken.py built it), with its choices:
     the instances of each hypothesis, whether arrays were lowered, the abbreviation instances
-    and congruences of the abstraction, and the weaker formula; None for any other backend."""
+    and congruences of the abstraction, and the atoms it rewrote; None for any other backend."""
     steps = backend[len("z3 ("):-1].split(", ") if backend.startswith("z3 (") else []
     if not steps or not set(steps) <= set(STEPS):
         return None
@@ -70,18 +70,33 @@ def _weakening(ob: Obligation, backend: str) -> dict | None:
     if lowered:
         base = lower(base)
         instances = fresh_instances(base, [i.with_definition(lower_term(i.definition)) for i in instances])
+    before = base
     if "abstracted" in steps:
         base = abstract(base, instances, facts)
     else:
         instances, facts = [], []
-    used = free_vars(base)
+    used, atoms = free_vars(base), []
+    if "abstracted" in steps:
+        _atoms(base.args[1] if facts else base, before, atoms, [0])
     return {"instances": None if not steps[0].startswith("instantiated") else
             [k if isinstance(k, int) else [k[0], [_text(t) for t in k[1]]] for k in record],
             "lowered": lowered,
             "abbreviations": [[i.symbol.payload, _text(i.definition)] for i in instances
                               if i.symbol.payload in used],
             "facts": [_text(f) for f in facts],
-            "formula": _text(base)}
+            "atoms": atoms,
+            "smtlib": script(base)}
+
+
+def _atoms(w: Node, f: Node, out: list, seen: list[int]) -> None:
+    """[k, atom of w] for each k-th atom (pre-order) the abstraction rewrote in f."""
+    if f.op in ("and", "or", "not", "implies", "iff", "forall", "exists"):
+        for a, b in zip(w.args, f.args):
+            _atoms(a, b, out, seen)
+        return
+    if not w.same(f):
+        out.append([seen[0], _text(w)])
+    seen[0] += 1
 
 
 def _rules(p: Program, at: str, plan: dict) -> list[dict]:

@@ -19,6 +19,8 @@ from certiloop.models.lang.terms import (
     select,
     store,
 )
+from certiloop.proofs.arith.smtlib import script
+from certiloop.proofs.checker.certificate import RLIMIT, decide
 from certiloop.proofs.checker.derive import Rejected
 from certiloop.proofs.checker.weakening import weakened
 
@@ -28,21 +30,27 @@ i, j = Var("i", B), Var("j", B)
 a = Array("a", B)
 
 
-def _record(formula, instances=None, lowered=False, abbreviations=(), facts=()):
+def _record(instances=None, lowered=False, abbreviations=(), facts=(), atoms=(), decided=None):
+    """A weakening record; `decided` is the weaker formula whose SMT-LIB text it records."""
     return {"instances": instances, "lowered": lowered,
             "abbreviations": [[name, repr(d.key)] for name, d in abbreviations],
-            "facts": [repr(f.key) for f in facts], "formula": repr(formula.key)}
+            "facts": [repr(f.key) for f in facts], "atoms": [[k, repr(atom.key)] for k, atom in atoms],
+            "smtlib": "" if decided is None else script(decided)}
 
 
 def test_an_instance_is_rebuilt_by_substitution():
-    """(∀u u·u + c >= 0) -> x·x + c >= 0: the hypothesis at u = x is the goal itself."""
+    """(∀u u·u + c >= 0) -> x·x + c >= 0: the hypothesis at u = x is the goal itself; at u = y
+    it is a weakening z3 refutes (x = 1, y = 0, c = -1/2)."""
     leaf = Implies(ForAll(u, u * u + c >= 0), x * x + c >= 0)
     wanted = Implies(x * x + c >= 0, x * x + c >= 0)
-    assert weakened(leaf, _record(wanted, [[0, [repr(x.key)]]]), "o1").same(wanted)
-    with pytest.raises(Rejected):  # recorded at y, the formula claims the instance at x
-        weakened(leaf, _record(wanted, [[0, [repr(y.key)]]]), "o1")
-    with pytest.raises(Rejected):  # an instance term for a hypothesis that has no quantifier
-        weakened(Implies(x >= 0, x >= 0), _record(wanted, [[0, [repr(x.key)]]]), "o1")
+    assert weakened(leaf, _record([[0, [repr(x.key)]]], decided=wanted), "o1").same(wanted)
+    at_y = Implies(y * y + c >= 0, x * x + c >= 0)
+    assert weakened(leaf, _record([[0, [repr(y.key)]]], decided=at_y), "o1").same(at_y)
+    assert "sat" in decide(script(at_y), RLIMIT)
+    with pytest.raises(Rejected, match="not the one these steps give"):  # recorded at y, claims x
+        weakened(leaf, _record([[0, [repr(y.key)]]], decided=wanted), "o1")
+    with pytest.raises(Rejected, match="more instance terms"):  # x >= 0 has no quantifier
+        weakened(Implies(x >= 0, x >= 0), _record([[0, [repr(x.key)]]], decided=wanted), "o1")
 
 
 def test_a_universal_goal_gets_a_fresh_skolem_constant():
@@ -50,24 +58,30 @@ def test_a_universal_goal_gets_a_fresh_skolem_constant():
     already has a symbol of that name (it would not be arbitrary)."""
     k = Var("u@sk1")
     wanted = Implies(c >= 0, k * k + c >= 0)
-    assert weakened(Implies(c >= 0, ForAll(u, u * u + c >= 0)), _record(wanted, [0]), "o1").same(wanted)
+    leaf = Implies(c >= 0, ForAll(u, u * u + c >= 0))
+    assert weakened(leaf, _record([0], decided=wanted), "o1").same(wanted)
     stale = Implies(And(c >= 0, k >= 1), ForAll(u, u * u + c >= 0))
     with pytest.raises(Rejected, match="not fresh"):
-        weakened(stale, _record(wanted, [0, 1]), "o1")
+        weakened(stale, _record([0, 1], decided=Implies(And(c >= 0, k >= 1), k * k + c >= 0)), "o1")
 
 
 def test_an_abbreviation_must_stand_for_a_term_giving_the_same_polynomial():
     """x² + 2xy + y² >= 0 abstracted to s·s >= 0 with s = x + y ((x + y)² is it); s = x - y
     is not ((x - y)² = x² - 2xy + y²), and s may not be a symbol of the leaf."""
     leaf = x * x + 2 * x * y + y * y >= 0
-    assert weakened(leaf, _record(s * s >= 0, abbreviations=[("s", x + y)]), "o1").same(s * s >= 0)
-    with pytest.raises(Rejected):
-        weakened(leaf, _record(s * s >= 0, abbreviations=[("s", x - y)]), "o1")
+    def square(t, atom=s * s >= 0, k=0):
+        return _record(abbreviations=[("s", t)], atoms=[(k, atom)], decided=atom)
+
+    assert weakened(leaf, square(x + y), "o1").same(s * s >= 0)
+    with pytest.raises(Rejected, match="rewritten atom"):
+        weakened(leaf, square(x - y), "o1")
     with pytest.raises(Rejected, match="fresh"):
-        weakened(Implies(s >= 0, leaf), _record(Implies(s >= 0, s * s >= 0), abbreviations=[("s", x + y)]),
+        weakened(Implies(s >= 0, leaf), dict(square(x + y, k=1), smtlib=script(Implies(s >= 0, s * s >= 0))),
                  "o1")
-    with pytest.raises(Rejected):  # the operator must stay: s·s > 0 is not implied
-        weakened(leaf, _record(s * s > 0, abbreviations=[("s", x + y)]), "o1")
+    with pytest.raises(Rejected, match="rewritten atom"):  # the operator must stay: s·s > 0 is not implied
+        weakened(leaf, square(x + y, s * s > 0), "o1")
+    with pytest.raises(Rejected, match="past"):  # the leaf has one atom
+        weakened(leaf, square(x + y, k=1), "o1")
 
 
 def test_lowering_is_recomputed_read_over_write_and_reads_as_symbols():
@@ -75,10 +89,7 @@ def test_lowering_is_recomputed_read_over_write_and_reads_as_symbols():
     leaf = select(store(a, (i,), x), j) >= 0
     ri, rj, aj = Var("i", REAL), Var("j", REAL), Var("a[j]", REAL)
     wanted = And(Implies(cmp("==", ri, rj), x >= 0), Implies(Not(cmp("==", ri, rj)), aj >= 0))
-    assert weakened(leaf, _record(wanted, lowered=True), "o1").same(wanted)
-    swapped = And(Implies(cmp("==", ri, rj), aj >= 0), Implies(Not(cmp("==", ri, rj)), x >= 0))
-    with pytest.raises(Rejected):
-        weakened(leaf, _record(swapped, lowered=True), "o1")
+    assert weakened(leaf, _record(lowered=True, decided=wanted), "o1").same(wanted)
 
 
 def test_an_index_value_in_arithmetic_is_rejected():
@@ -88,7 +99,7 @@ def test_an_index_value_in_arithmetic_is_rejected():
     ri, rj, ai, aj = Var("i", REAL), Var("j", REAL), Var("a[i]", REAL), Var("a[j]", REAL)
     ack = Implies(cmp("==", ri, rj), cmp("==", ai, aj))
     good = Implies(ack, Implies(cmp("==", ri, rj), cmp("==", ai, aj)))
-    assert weakened(leaf, _record(good, lowered=True), "o1").same(good)
+    assert weakened(leaf, _record(lowered=True, decided=good), "o1").same(good)
     bad = Implies(ack, Implies(cmp("==", ri - rj, 0), cmp("==", ai, aj)))
-    with pytest.raises(Rejected, match="index value"):
-        weakened(leaf, _record(bad, lowered=True), "o1")
+    with pytest.raises(Rejected, match="index value"):  # the atoms: ack's two, then the leaf's two
+        weakened(leaf, _record(lowered=True, atoms=[(2, cmp("==", ri - rj, 0))], decided=bad), "o1")
