@@ -1,12 +1,12 @@
-"""A leaf proved through a weakening (format v2): a recorded formula W whose validity implies
-the leaf's, built by the prover's instantiation, lowering and abstraction. Nothing recorded is
-trusted (README.md, "Weakenings"): instances are rebuilt by substitution into the leaf's own
-hypotheses after its goal is skolemised here; the lowering is recomputed here; W must then be
-(congruences -> that formula) with each atom the same, or, once W's abbreviation symbols are
-replaced by their definitions, the same comparison of an identical polynomial. Symbols that
-stand for index values occur in W only in equalities between them, so W valid over the reals
-is W valid over any index sort.
+"""A leaf proved through a weakening (format v2): a formula W whose validity implies the leaf's,
+built here from the leaf and the recorded choices of the prover's instantiation, lowering and
+abstraction (README.md, "Weakenings"): instances substituted into the leaf's own hypotheses
+after its goal is skolemised here, the lowering recomputed, each rewritten atom the same
+comparison of an identical polynomial once the abbreviations are replaced by their
+definitions. Index values occur in W only in equalities, so W valid over the reals is W valid
+over any index sort. The recorded SMT-LIB text must be W's.
 """
+
 from __future__ import annotations
 
 import itertools
