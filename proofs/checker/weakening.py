@@ -83,13 +83,16 @@ def instantiated(f: Node, entries: object) -> Node:
     hyps, goal = _split(f, made)
     if set(free_vars(f)) & {c.payload for c in made}:
         raise Rejected("a skolem constant of the goal is not fresh")
-    out = []
+    known, out = {**free_vars(f), **{c.payload: c for c in made}}, []
     for e in _list(entries, "instances"):
         k, terms = (e, None) if type(e) is int else e if isinstance(e, list) and len(e) == 2 else (None, 0)
         if type(k) is not int or not 0 <= k < len(hyps) or not (terms is None or isinstance(terms, list)) \
                 or isinstance(e, list) and terms is None:
             raise Malformed(f"instances: bad entry {e!r:.60} ({len(hyps)} hypotheses)")
-        out.append(hyps[k] if terms is None else _instance(hyps[k], [keys.from_text(t) for t in terms]))
+        terms = None if terms is None else [keys.from_text(t) for t in terms]
+        if any(known.get(n, v).sort != v.sort for t in terms or () for n, v in free_vars(t).items()):
+            raise Rejected(f"instances: a term's symbol has another sort in the leaf ({e!r:.60})")
+        out.append(hyps[k] if terms is None else _instance(hyps[k], terms))
     return Implies(And(*out), goal)
 
 
@@ -150,8 +153,8 @@ def lowered(f: Node) -> tuple[Node, dict[str, Node]]:
         if n.op == "store" or n.op == "select" and (n.args[0].op != "var" or any(
                 _has_read(i) or set(free_vars(i)) & bound for i in n.args[1:])):
             raise NotCheckable(f"lowering `{n}`")
-        if n.op == "select":
-            reads.setdefault(read_name(n), n)
+        if n.op == "select" and reads.setdefault(read_name(n), n).key != n.key:
+            raise NotCheckable(f"two reads named {read_name(n)}")
         for a in n.args:
             collect(a, bound)
 

@@ -51,6 +51,9 @@ def test_an_instance_is_rebuilt_by_substitution():
         weakened(leaf, _record([[0, [repr(y.key)]]], decided=wanted), "o1")
     with pytest.raises(Rejected, match="more instance terms"):  # x >= 0 has no quantifier
         weakened(Implies(x >= 0, x >= 0), _record([[0, [repr(x.key)]]], decided=wanted), "o1")
+    with pytest.raises(Rejected, match="another sort"):  # a real named like the leaf's index symbol i
+        weakened(Implies(And(ForAll(u, u * u + c >= 0), cmp("==", i, j)), x >= 0),
+                 _record([[0, [repr(Var("i").key)]], 1], decided=wanted), "o1")
 
 
 def test_a_universal_goal_gets_a_fresh_skolem_constant():
