@@ -39,8 +39,8 @@ def weakened(leaf: Node, record: object, where: str) -> Node:
     seen = [0]
     w = Implies(And(*facts), _rewritten(f, {k: keys.from_text(a, True) for k, a in atoms.items()}, sigma,
                                         watched, seen, True))
-    if any(k >= seen[0] for k in atoms):
-        raise Rejected(f"{where}: a rewritten atom's index is past the formula's {seen[0]} atoms")
+    if any(not 0 <= k < seen[0] for k in atoms):
+        raise Rejected(f"{where}: a rewritten atom's index is not one of the formula's {seen[0]} atoms")
     taken, used = free_vars(f), free_vars(w)
     index = {n for n, t in undo.items() if _index_sort(t.sort)}
     for name, d in sigma.items():
