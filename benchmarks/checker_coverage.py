@@ -30,12 +30,12 @@ def main(prefixes: list[str]) -> None:
             if result.proof is None:
                 print(f"{name:45s} prove {result.verdict:8s} {proving:8.2f} s", flush=True)
                 continue
-            doc = json.loads(json.dumps(certificate(*result.proof)))
+            doc = json.loads(json.dumps(certificate(*result.proof, result.obligations)))
             start = time.perf_counter()
             outcome = check(doc)
             checking = time.perf_counter() - start
             print(f"{name:45s} prove {result.verdict:8s} {proving:8.2f} s  check {outcome.status:9s} "
-                  f"{checking:7.2f} s  {outcome.message[:150]}", flush=True)
+                  f"{checking:7.2f} s  {outcome.message[:400]}", flush=True)
 
 
 if __name__ == "__main__":

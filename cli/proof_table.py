@@ -75,7 +75,8 @@ def show_result(console: Console, result: TheoremResult, level: int = ui.NORMAL)
     fine = result.verdict == "proved" and result.nonblocking_verdict in (None, "proved")
     if level == ui.QUIET and fine:
         return
-    console.print(f"[bold]{escape(result.model)}[/]: {verdict_text(result.verdict)} "
+    checked = " (checked)" if result.verdict == "proved" and "checked" in result.extra else ""
+    console.print(f"[bold]{escape(result.model)}[/]: {verdict_text(result.verdict)}{checked} "
                   f"({proved}/{n} obligations proved, {result.seconds:.2f} s; expected {result.expected})",
                   highlight=False)
     failing = [o for o in result.obligations if o.verdict != "proved"]

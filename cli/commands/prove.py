@@ -23,6 +23,9 @@ def add_parser(sub) -> None:
     prove.add_argument("--smtlib", metavar="DIR", help="write every obligation as an SMT-LIB 2.6 file")
     prove.add_argument("--certificate", metavar="DIR", help="write a proof certificate (JSON, checked by "
                        "`certiloop check-proof`) for each proved model into DIR")
+    prove.add_argument("--check", action="store_true",
+                       help="re-check every proof with the separate proof checker (as `check-proof` does): "
+                       "'proved (checked)' when it accepts; if it rejects, unknown with its reason")
     options.budget_flags(prove)
     options.cross_check_flag(prove)
     prove.add_argument("--allow-vacuous", action="store_true",
@@ -72,11 +75,13 @@ def run(args: argparse.Namespace) -> int:
                     continue
                 if args.cross_check:
                     cross_check(result)
+                if args.check:
+                    check_proof(result)
                 show_result(out, result, level)
                 if args.certificate and result.proof is not None:
                     from certiloop.proofs.engine.certificate_writer import write_certificate
 
-                    write_certificate(*result.proof, Path(args.certificate))
+                    write_certificate(*result.proof, Path(args.certificate), result.obligations)
                 results.append(result)
                 docs.append(result.to_json())
     except KeyboardInterrupt:
@@ -112,6 +117,29 @@ def prove_exit(results: list, unsupported: list = (), allow_vacuous: bool = Fals
     all_proved = all(r.verdict == "proved" and r.nonblocking_verdict in (None, "proved") for r in results)
     return EXIT_OK if all_proved and (allow_vacuous or not vacuous) else EXIT_FAILED
 
+
+
+def check_proof(result) -> None:
+    """A proved model's certificate re-checked by the separate checker (proofs/checker), from
+    its JSON text as `check-proof` reads it: kept as extra["checked"] when accepted; otherwise
+    the verdict becomes unknown, with the checker's message as the reason."""
+    if result.verdict != "proved":
+        return
+    import json
+
+    from certiloop.proofs.checker import check
+    from certiloop.proofs.engine.certify import certificate
+
+    if result.proof is None:
+        message = "rejected: the proof has no certificate to check"
+    else:
+        doc = json.loads(json.dumps(certificate(*result.proof, result.obligations)))
+        message = check(doc).message
+    if message.startswith("accepted"):
+        result.extra["checked"] = message
+    else:
+        result.verdict = "unknown"
+        result.reason = f"proved, but the proof checker did not accept its certificate: {message}"
 
 
 def cross_check(result) -> None:

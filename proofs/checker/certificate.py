@@ -26,10 +26,14 @@ from certiloop.proofs.arith.smtlib import script
 from certiloop.proofs.checker import keys
 from certiloop.proofs.checker.derive import FLOW_TIME, Derivation, Leaf, Rejected
 from certiloop.proofs.checker.keys import Malformed
+from certiloop.proofs.checker.keys import fields as _fields
 from certiloop.proofs.checker.ode_facts import NotCheckable
+from certiloop.proofs.checker.weakening import weakened
 
 FORMAT = "certiloop-certificate/1"
+FORMAT_V2 = "certiloop-certificate/2"  # v1 and leaves proved through a weakening (weakening.py)
 DECIDED = "z3 unsat"  # the one decision procedure of format v1
+WEAKENED = "z3 unsat of a weakening"  # v2: z3 on the leaf's recorded weakening, checked to imply it
 RLIMIT = 20_000_000  # z3's resource limit per leaf: a count of its steps, not a clock
 # z3 does not count every step of its quantifier engine: a net against a leaf it never leaves.
 # Reaching it only rejects (never accepts), and no leaf of an accepted library model comes near.
@@ -58,8 +62,8 @@ def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
     try:
         theorem, odes = _read(doc)
         derived = Derivation(theorem, odes).run()
-        _compare(doc, derived)
-        failed = decide_all([script(leaf.formula) for leaf in derived], rlimit)
+        texts = _compare(doc, derived)
+        failed = decide_all(texts, rlimit)
         if failed is not None:
             leaf = derived[failed[0]]
             raise Rejected(f"leaf {leaf.id} ({' / '.join(leaf.path)}): {failed[1]}")
@@ -70,13 +74,15 @@ def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
         return Outcome("rejected", f"rejected: {text}")
     except Rejected as exc:
         return Outcome("rejected", f"rejected: {exc}", _texts(derived))
-    except (ValueError, TypeError, KeyError, AttributeError, RecursionError) as exc:  # never an acceptance
+    except (ValueError, TypeError, KeyError, AttributeError, RecursionError, AssertionError) as exc:
+        # never an acceptance
         return Outcome("rejected", f"rejected: the checker could not follow the certificate ({exc!r:.200})")
     name, digest = doc["theorem"]["name"], doc["theorem"]["hash"]
     # the safety claim, as `prove` reports it; a theorem's non-blocking check is a separate proof
     besides = "; its non-blocking check is not in the certificate" * theorem.check_nonblocking
     return Outcome("accepted", f"accepted: {name} ({digest}): assumptions -> [program] guarantee, "
-                   f"{len(derived)} leaves{besides}", _texts(derived))
+                   f"{len(derived)} leaves{besides}",
+                   tuple((leaf.id, text) for leaf, text in zip(derived, texts)))
 
 
 def _texts(leaves: list[Leaf]) -> tuple[tuple[str, str], ...]:
@@ -135,17 +141,10 @@ def decide(smtlib: str, rlimit: int) -> str | None:
 # --------------------------------------------------------------------------- reading
 
 
-def _fields(obj: object, names: set[str], where: str) -> dict:
-    if not isinstance(obj, dict) or set(obj) != names:
-        got = sorted(obj) if isinstance(obj, dict) else type(obj).__name__
-        raise Malformed(f"{where} must have exactly the fields {sorted(names)}, got {got}")
-    return obj
-
-
 def _read(doc: object) -> tuple[Theorem, dict[str, tuple[str, object]]]:
     doc = _fields(doc, TOP, "the certificate")
-    if doc["format"] != FORMAT:
-        raise Malformed(f"format {doc['format']!r} is not {FORMAT!r}")
+    if doc["format"] not in (FORMAT, FORMAT_V2):
+        raise Malformed(f"format {doc['format']!r} is not {FORMAT!r} or {FORMAT_V2!r}")
     head = _fields(doc["theorem"], {"name", "hash", "canonical"}, "theorem")
     theorem = keys.theorem(head["canonical"])
     if theorem.name != head["name"]:
@@ -280,8 +279,9 @@ def tree(paths: list[tuple[str, str]]) -> dict:
     return root
 
 
-def _compare(doc: dict, derived: list[Leaf]) -> None:
-    leaves = doc["leaves"]
+def _compare(doc: dict, derived: list[Leaf]) -> list[str]:
+    """The SMT-LIB text to decide for each leaf: the leaf's own, or its checked weakening's (v2)."""
+    leaves, v2, out = doc["leaves"], doc["format"] == FORMAT_V2, []
     if not isinstance(leaves, list):
         raise Malformed("leaves must be a list")
     mine = [(leaf.id, " / ".join(leaf.path)) for leaf in derived]
@@ -290,14 +290,19 @@ def _compare(doc: dict, derived: list[Leaf]) -> None:
     if len(leaves) != len(derived):
         raise Rejected(f"leaves: {len(leaves)} recorded, the proof has {len(derived)}")
     for got, leaf in zip(leaves, derived):
-        got = _fields(got, {"id", "path", "smtlib", "decided"}, "a leaf")
+        got = _fields(got, {"id", "path", "smtlib", "decided", *["weakening"] * v2}, "a leaf")
         where = f"leaf {leaf.id} ({' / '.join(leaf.path)})"
         if got["id"] != leaf.id or got["path"] != " / ".join(leaf.path):
             raise Rejected(f"{where}: recorded as {got['id']!r} at {got['path']!r}")
         if got["smtlib"] != script(leaf.formula):
             raise Rejected(f"{where}: the recorded formula is not the one this step produces")
-        if got["decided"] != DECIDED:
+        weak = got.get("weakening")
+        if got["decided"] != (DECIDED if weak is None else WEAKENED):
             raise NotCheckable(f"decision {got['decided']!r} not checkable yet")
+        if weak is not None:
+            weakened(leaf.formula, weak, where)  # checked to imply the leaf, its text compared
+        out.append(got["smtlib"] if weak is None else weak["smtlib"])
+    return out
 
 
 __all__ = ["FLOW_TIME", "Outcome", "check", "decide", "tree"]

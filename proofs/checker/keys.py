@@ -8,7 +8,8 @@ names) and must print back to exactly the text it came from.
 
 from __future__ import annotations
 
-import ast
+import functools
+import re
 from fractions import Fraction
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Count, Each, Havoc, Loop, Program, Seq, Test
@@ -23,31 +24,43 @@ class Malformed(ValueError):
     """The certificate cannot be read: exit 2."""
 
 
+def fields(obj: object, names: set[str], where: str) -> dict:
+    if not isinstance(obj, dict) or set(obj) != names:
+        got = sorted(obj) if isinstance(obj, dict) else type(obj).__name__
+        raise Malformed(f"{where} must have exactly the fields {sorted(names)}, got {got}")
+    return obj
+
+
+# a key's text: tuples of strings (without escapes), integers, None, booleans and Fraction(n, d)
+TOKEN = re.compile(r"\s*(?:(\()|(\))|,|'([^'\\]*)'|\"([^\"\\]*)\"|(-?\d+)|(None|True|False)"
+                   r"|Fraction\((-?\d+), ([1-9]\d*)\))")
+WORDS = {"None": None, "True": True, "False": False}
+OPS = {"var", "const", "+", "*", "neg", "/", "^", "select", "store", "ite", "cmp", "and", "or", "not",
+       "implies", "iff", "forall", "exists", "true", "false", "box", "diamond"}
+COMPARISONS = {"==", "!=", "<", "<=", ">", ">="}
+
+
 def literal(text: str):
-    """The value of a key's text; Malformed for anything but tuples, constants and Fraction(n, d)."""
+    """The value of a key's text; Malformed for anything but tuples, constants and Fraction(n, d).
+    Lenient about commas: the node it makes must print back to exactly this text."""
     if not isinstance(text, str):
         raise Malformed(f"expected a key's text, got {type(text).__name__}")
-    try:
-        tree = ast.parse(text, mode="eval").body
-    except SyntaxError as exc:
-        raise Malformed(f"unreadable key text ({exc.msg})") from None
-    return _value(tree)
-
-
-def _value(n: ast.AST):
-    if isinstance(n, ast.Tuple):
-        return tuple(_value(e) for e in n.elts)
-    if isinstance(n, ast.Constant) and (n.value is None or isinstance(n.value, (str, int, bool))):
-        return n.value
-    if isinstance(n, ast.UnaryOp) and isinstance(n.op, ast.USub) and isinstance(n.operand, ast.Constant) \
-            and type(n.operand.value) is int:
-        return -n.operand.value
-    if (isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id == "Fraction"
-            and len(n.args) == 2 and not n.keywords):
-        num, den = (_value(a) for a in n.args)
-        if type(num) is int and type(den) is int and den > 0:
-            return Fraction(num, den)
-    raise Malformed(f"unexpected element `{ast.unparse(n)}` in a key's text")
+    stack, pos = [[]], 0
+    while pos < len(text):
+        m = TOKEN.match(text, pos)
+        if m is None or m.end() == pos:
+            raise Malformed(f"unexpected {text[pos:pos + 30]!r} in a key's text")
+        pos, (opened, closed, single, double, number, word, num, den) = m.end(), m.groups()
+        if opened or closed:
+            if closed and len(stack) < 2:
+                raise Malformed("unbalanced parentheses in a key's text")
+            stack.append([]) if opened else stack[-2].append(tuple(stack.pop()))
+        elif m.lastindex is not None:
+            stack[-1].append(single if single is not None else double if double is not None else
+                             int(number) if number else WORDS[word] if word else Fraction(int(num), int(den)))
+    if len(stack) != 1 or len(stack[0]) != 1:
+        raise Malformed("a key's text must be one value")
+    return stack[0][0]
 
 
 def sort(text) -> Sort:
@@ -64,7 +77,7 @@ def node(key) -> Node:
         op, sort_text, payload, args = key
     except (TypeError, ValueError):
         raise Malformed(f"a node's key must be (op, sort, payload, args), got {key!r:.80}") from None
-    if not isinstance(op, str) or not isinstance(args, tuple):
+    if op not in OPS or not isinstance(args, tuple) or op == "cmp" and payload not in COMPARISONS:
         raise Malformed(f"bad node key {key!r:.80}")
     if op in ("forall", "exists"):
         payload = tuple(node(v) for v in payload)
@@ -72,9 +85,24 @@ def node(key) -> Node:
         payload = program(payload)
     elif op == "const" and not isinstance(payload, Fraction):
         raise Malformed(f"a constant's value must be Fraction(n, d), got {payload!r}")
-    return Node(op, tuple(node(a) for a in args), sort(sort_text), payload)
+    n = Node(op, tuple(node(a) for a in args), sort(sort_text), payload)
+    if n.sort != _wanted(n):  # one spelling: a node's sort is the one its constructor gives it
+        raise Malformed(f"the node {key!r:.60} is not of sort {_wanted(n)}")
+    return n
 
 
+def _wanted(n: Node) -> Sort:
+    if n.op in ("+", "*", "neg", "^"):
+        return INT if all(a.sort == INT for a in n.args) else REAL
+    if n.op in ("cmp", "and", "or", "not", "implies", "iff", "forall", "exists", "true", "false", "box",
+                "diamond"):
+        return BOOL
+    if n.op in ("/", "const"):
+        return n.sort if n.op == "const" and n.sort == INT else REAL
+    return n.args[0].sort if n.op == "store" else n.sort
+
+
+@functools.lru_cache(maxsize=65536)  # a weakening's instance terms recur in every leaf
 def from_text(text: str, want_formula: bool = False) -> Node:
     """The node whose key's text this is, exactly (another text for the same node is malformed:
     a certificate holds one spelling of each thing, so any change to it is seen)."""

@@ -96,10 +96,13 @@ def _prenex(h: Node) -> tuple[tuple[Node, ...], Node]:
     return (), h
 
 
-def instantiate(formula: Node, wide: bool = False, keep_goal_exists: bool = False) -> Node | None:
+def instantiate(formula: Node, wide: bool = False, keep_goal_exists: bool = False,
+                record: list | None = None) -> Node | None:
     """A quantifier-free formula that implies `formula` (None: no quantifiers, or an ∃ goal).
     keep_goal_exists: instantiate the hypotheses and keep a goal's remaining quantifiers
-    (instances of hypotheses are implied by them, so this still only weakens)."""
+    (instances of hypotheses are implied by them, so this still only weakens).
+    record, if given, receives one entry per hypothesis of the result, for a certificate:
+    k (the k-th hypothesis kept) or (k, terms) (its instance at those terms)."""
     if not has_quantifier(formula):
         return None
     sk = _Skolem()
@@ -108,11 +111,13 @@ def instantiate(formula: Node, wide: bool = False, keep_goal_exists: bool = Fals
     ground = free_vars(And(*hyps, goal))
     in_goal = [g for g in free_vars(goal).values() if g.sort == REAL and "@sk" not in g.payload]
     out: list[Node] = []
-    for h in hyps:
+    for k, h in enumerate(hyps):
         variables, body = _prenex(h)
         if not variables:
             if not has_quantifier(h):  # a hypothesis we cannot instantiate is dropped (weakening)
                 out.append(h)
+                if record is not None:
+                    record.append(k)
             continue
         pools = []
         for v in variables:
@@ -131,6 +136,8 @@ def instantiate(formula: Node, wide: bool = False, keep_goal_exists: bool = Fals
             instance = substitute_shared(body, {v.payload: t for v, t in zip(variables, combo)})
             if not has_quantifier(instance):
                 out.append(instance)
+                if record is not None:
+                    record.append((k, combo))
     if has_quantifier(goal) and not keep_goal_exists:
         return None
     return Implies(And(*out), goal)

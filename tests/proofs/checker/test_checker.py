@@ -114,3 +114,20 @@ def test_extra_or_missing_fields_are_malformed():
     extra = dict(doc, comment="trust me")
     missing = {k: v for k, v in doc.items() if k != "tree"}
     assert check(extra).exit_code == 2 and check(missing).exit_code == 2
+
+
+def test_prove_check_reports_checked_and_never_keeps_a_rejected_proof(monkeypatch, capsys):
+    """--check: the checker's acceptance shows as `proved (checked)`; a rejection makes the
+    verdict unknown with the checker's message (exit 1); without --check nothing changes."""
+    assert main(["prove", "textbook.water_tank", "--check"]) == 0
+    assert "textbook.water_tank: proved (checked)" in capsys.readouterr().out
+    assert main(["prove", "textbook.water_tank"]) == 0
+    plain = capsys.readouterr().out
+    assert "textbook.water_tank: proved (" in plain and "checked" not in plain
+    from certiloop.proofs import checker
+    from certiloop.proofs.checker.certificate import Outcome
+
+    monkeypatch.setattr(checker, "check", lambda doc: Outcome("rejected", "rejected: leaf o2 (tampered)"))
+    assert main(["prove", "textbook.water_tank", "--check"]) == 1
+    text = " ".join(capsys.readouterr().out.split())  # the console wraps long lines
+    assert "textbook.water_tank: unknown" in text and "rejected: leaf o2 (tampered)" in text

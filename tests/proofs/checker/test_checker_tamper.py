@@ -4,6 +4,7 @@ Each mutant must be rejected (exit 1) or malformed (exit 2)."""
 
 import copy
 import json
+import re
 
 import pytest
 from hypothesis import given, settings
@@ -13,6 +14,7 @@ from certiloop.models import library
 from certiloop.models.lang.programs import Loop, Seq
 from certiloop.models.library import textbook
 from certiloop.proofs.checker import check
+from certiloop.proofs.checker.certificate import FORMAT, FORMAT_V2
 from certiloop.proofs.engine.certificate_writer import certificate
 
 # the first three are used by name below; the train divides by a term (well-definedness leaves),
@@ -153,3 +155,105 @@ def test_a_certificate_for_a_false_claim_is_rejected(build):
     test_library) written up as if proved: some leaf is not valid, so z3 never says unsat."""
     outcome = check(json.loads(json.dumps(certificate(build(), {}))))
     assert outcome.status == "rejected", outcome.message
+
+
+# --------------------------------------------------------------------------- format 2: weakenings
+
+# proved through weakenings: instantiated + lowered + abstracted (3-d deviation stop, whose
+# lemma leaf is instantiated and lowered only) and abstracted alone (predictive controller)
+WEAKENED = ("raven.deviation_stop_3d", "sbs.predictive")
+
+
+@pytest.fixture(scope="module")
+def weakened_certificates() -> list[dict]:
+    from certiloop.proofs.engine.prover import Prover
+
+    docs = []
+    with Prover(jobs=1) as prover:
+        for name in WEAKENED:
+            result = prover.prove(library.get(name))
+            docs.append(json.loads(json.dumps(certificate(*result.proof, result.obligations))))
+    assert [d["format"] for d in docs] == [FORMAT_V2] * len(docs)
+    assert [check(d).status for d in docs] == ["accepted"] * len(docs)  # the originals pass
+    return docs
+
+
+def test_the_v1_certificates_above_are_still_read(certificates):
+    assert {d["format"] for d in certificates} == {FORMAT}
+
+
+def _weakening_values(doc):
+    """(path, value) of every string and number in the leaves' weakenings."""
+    def walk(obj, path):
+        if isinstance(obj, (str, int)) and not isinstance(obj, bool):
+            yield path, obj
+        elif isinstance(obj, dict):
+            for k, v in obj.items():
+                yield from walk(v, (*path, k))
+        elif isinstance(obj, list):
+            for n, v in enumerate(obj):
+                yield from walk(v, (*path, n))
+    for n, leaf in enumerate(doc["leaves"]):
+        if leaf.get("weakening") is not None:
+            yield from walk(leaf["weakening"], ("leaves", n, "weakening"))
+
+
+# one meaning-changing edit of a key text: a symbol renamed, a number changed, a comparison
+# changed. (Not `+` to `*`: a sum of one term is that term, as is a product of one factor, and
+# atoms are compared up to polynomial identity, README.md.)
+EDITS = ((r"'(\w+)@(\w+)'", lambda m: f"'{m[1]}@9{m[2]}'"),
+         (r"Fraction\((-?\d+), ", lambda m: f"Fraction({int(m[1]) + 1}, "),
+         (r"'>='", lambda m: "'>'"), (r"'<'", lambda m: "'<='"), (r"'=='", lambda m: "'!='"))
+
+
+def _edits(value):
+    if isinstance(value, int):
+        yield value + 1
+        return
+    for pattern, new in EDITS:
+        found = list(re.finditer(pattern, value))
+        for m in found[:1] + found[-1:] if len(found) > 1 else found:  # the first and the last
+            yield value[:m.start()] + new(m) + value[m.end():]
+
+
+def test_every_value_of_a_weakening_changed_is_rejected(weakened_certificates):
+    """Each string (symbol, key text) and number (hypothesis index) of the weakenings of the
+    first leaves, edited so that it means something else: never accepted."""
+    tried = 0
+    for doc in weakened_certificates:
+        values = list(_weakening_values(doc))
+        leaves = sorted({path[1] for path, _ in values})[:3]
+        for path, value in values:
+            if path[1] not in leaves:
+                continue
+            for new in _edits(value):
+                tried += 1
+                outcome = check(_replaced(doc, path, new))
+                assert outcome.exit_code in (1, 2), (path, str(value)[:80], str(new)[:80])
+    assert tried > 100, tried  # every field kind was edited
+
+
+@settings(max_examples=60)
+@given(st.data())
+def test_any_string_of_a_weakening_changed_is_never_accepted(weakened_certificates, data):
+    doc = data.draw(st.sampled_from(weakened_certificates))
+    path, text = data.draw(st.sampled_from([(p, v) for p, v in _weakening_values(doc) if isinstance(v, str)]))
+    where = data.draw(st.integers(0, len(text)))
+    char = data.draw(st.sampled_from(list("0123456789 ()<>=+-*/,.'xyzhvg@|_")))
+    new = text[:where] + char + text[where + 1:]
+    if new == text:
+        new = text + "1"
+    assert check(_replaced(doc, path, new)).exit_code in (1, 2), (path, text[:80], new[:80])
+
+
+def test_a_weakening_moved_dropped_or_from_another_leaf_is_rejected(weakened_certificates):
+    doc = weakened_certificates[1]
+    first, second = [n for n, leaf in enumerate(doc["leaves"]) if leaf["weakening"] is not None][:2]
+    moved = copy.deepcopy(doc)
+    moved["leaves"][first]["weakening"] = copy.deepcopy(doc["leaves"][second]["weakening"])
+    dropped = copy.deepcopy(doc)
+    dropped["leaves"][first].update(weakening=None)  # z3 on the leaf as stated: still labelled weakened
+    as_v1 = copy.deepcopy(doc)
+    as_v1["format"] = FORMAT
+    for mutant in (moved, dropped, as_v1):
+        assert check(mutant).exit_code in (1, 2)
