@@ -80,7 +80,7 @@ def _read_wip(path: Path) -> tuple:
 
 
 def _is_models_file(file_path: Path, config: pytest.Config) -> bool:
-    """Named like a models file, and not a test module (tests/test_models.py is pytest's)."""
+    """Named like a models file, and not a test module (tests/models/test_models.py is pytest's)."""
     return (file_path.suffix == ".py"
             and any(fnmatch(file_path.name, p) for p in config.getini("certiloop_model_files"))
             and not any(fnmatch(file_path.name, p) for p in config.getini("python_files")))

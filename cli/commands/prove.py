@@ -128,7 +128,7 @@ def check_proof(result) -> None:
     import json
 
     from certiloop.proofs.checker import check
-    from certiloop.proofs.engine.certify import certificate
+    from certiloop.proofs.engine.certificate_writer import certificate
 
     if result.proof is None:
         message = "rejected: the proof has no certificate to check"

@@ -5,7 +5,7 @@ sort lookups and coercions: about 20 µs per node, which made translation three 
 a check on the `sbs` obligations. Here each node is one C call (plus a reference count), a
 subterm shared by several parents is translated once, and sorts are followed on our side.
 The terms built are exactly those z3's Python layer builds for the same expressions (same
-calls, same Int -> Real coercions: `tests/test_z3terms.py` checks AST identity against it
+calls, same Int -> Real coercions: `tests/proofs/core/test_z3terms.py` checks AST identity against it
 on every library obligation), so z3 searches exactly as before and no verdict changes.
 """
 

@@ -35,7 +35,7 @@ from certiloop.studies.rcm.generated import axial_guard as rcm_guard
 # Standard DH (theta_i = q_i, a_i = 0) of the KUKA LWR4+: d = (0.31, 0, 0.40, 0, 0.39, 0, 0.078) m,
 # alpha = (pi/2, -pi/2, -pi/2, pi/2, pi/2, -pi/2, 0): the arm's published link lengths
 # (KUKA LWR4+ specification: shoulder 0.31 m, upper arm 0.40 m, forearm 0.39 m, flange
-# 0.078 m). Checked against the paper's own anchor (tests/test_rcm_kernel.py): at
+# 0.078 m). Checked against the paper's own anchor (tests/studies/rcm/test_rcm_kernel.py): at
 # q = [20 50 0 -70 0 60 0] deg the flange is at (-0.6053, -0.2203, 0.2941) m, tool axis down.
 DH_D = np.array([0.31, 0.0, 0.40, 0.0, 0.39, 0.0, 0.078])
 DH_ALPHA = np.array([1, -1, -1, 1, 1, -1, 0]) * (np.pi / 2)

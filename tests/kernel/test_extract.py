@@ -39,7 +39,7 @@ from certiloop.models.lang.theorem import Theorem
 
 PROVED = ["sbs.ctrl1", "sbs.predictive", "sbs.ctrl2_2d", "sbs.ctrl2", "sbs.ctrl2_dynamic", "cfmpa.builtdr",
           "textbook.bouncing_ball", "textbook.train", "textbook.water_tank", "textbook.cart_forward"]
-# same tolerance as tests/test_kernel.py: the generated code evaluates the model's own terms
+# same tolerance as tests/studies/sbs/test_kernel.py: the generated code evaluates the model's own terms
 # (a pinned x·A = B as B/A, a pinned x²·A = B as sqrt(B/A)), the interpreter too
 REL, ABS = 1e-9, 1e-12
 _MODULES: dict[str, dict] = {}

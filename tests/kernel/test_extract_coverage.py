@@ -2,7 +2,7 @@
 that runs and agrees with the model's interpreter, or is refused with a one-line reason that
 this file lists, so that a model moving from one list to the other is a visible change.
 
-The conformance oracle is as in tests/test_extract.py: the model's control step run by the
+The conformance oracle is as in tests/kernel/test_extract.py: the model's control step run by the
 interpreter (first enabled alternative, as the kernel), on states built inside each model's
 assumptions, hand-picked edges plus seeded random ones; also values by hand where they are
 short. The models already covered there (sbs.*, cfmpa.builtdr, textbook.*) are not repeated.

@@ -42,7 +42,7 @@ def _real_inputs(name: str) -> list[str]:
     return [v for v in module(name)["INPUTS"] if sorts.get(v) == REAL]
 
 
-# scalar controllers with a real input (a step over a family of boundaries: tests/test_float_sound.py)
+# scalar controllers with a real input (a step over a family of boundaries: tests/kernel/test_float_sound.py)
 SCALAR = [n for n in EXTRACTS if "_step" in module(n) and not module(n)["FAMILIES"] and _real_inputs(n)]
 # steps that pin a value by a quadratic equation: the exact interpreter takes no irrational root
 ROOTS = {n for n in SCALAR if "_R.sqrt(" in _source(n)}
@@ -293,7 +293,7 @@ def test_train_monitor_on_ties_accepts_exactly_the_model_command(data):
 def test_monitor_accepts_the_controllers_command_on_ties(name, data):
     try:
         ns = monitor(name)
-    except Exception:  # noqa: BLE001 - a model without a monitor (tests/test_monitors.py lists them)
+    except Exception:  # noqa: BLE001 - a model without a monitor (tests/kernel/test_monitors.py lists them)
         pytest.skip("no monitor")
     state = data.draw(tie_states(name))
     ctrl = module(name)

@@ -171,7 +171,7 @@ def test_decisions_are_the_real_models_on_extreme_inputs(scene):
 
 @st.composite
 def plain_scenes(draw):
-    """Ordinary magnitudes, unit normals, the tool on the safe side (tests/test_kernel.py's
+    """Ordinary magnitudes, unit normals, the tool on the safe side (tests/studies/sbs/test_kernel.py's
     shape), with exact ties: on the plane, zero force, force parallel to a plane."""
     coord = st.one_of(st.just(0.0), st.floats(-5, 5))
     p = np.array(draw(st.tuples(coord, coord, coord)))

@@ -107,7 +107,7 @@ def test_a_model_that_cannot_be_built_is_a_collection_error(pytester, run):
 
 def test_test_modules_and_other_files_are_not_collected_as_models(pytester, run):
     # test_arm_models.py matches *_models.py, but it is a test module: only its tests run (not
-    # named test_models.py: certiloop's own tests/test_models.py is already imported in-process)
+    # named test_models.py: certiloop's own tests/models/test_models.py is already imported in-process)
     pytester.makepyfile(test_arm_models="""
         from certiloop.models.library.textbook import cart_may_brake
         wrong = cart_may_brake()

@@ -24,7 +24,7 @@ Two passes, as the Python has a float pass and an exact pass:
 * where even the careful pass cannot decide, the function returns -1 (UNDECIDED): no
   decision is taken, the caller falls back as for "no run" (ctrl2's fixture commands k = 0).
   C has no rationals; this is the only place where it differs from the Python kernel, which
-  decides such rows exactly. Conformance (tests/test_extract_c.py): wherever C decides, its
+  decides such rows exactly. Conformance (tests/kernel/test_extract_c.py): wherever C decides, its
   decision is the reals' (so the Python kernel's); undecided states are counted and checked
   to be near-ties.
 

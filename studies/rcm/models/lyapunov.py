@@ -28,7 +28,7 @@ def euler_matrix(a: int) -> list[list[Fraction]]:
 
 
 EULER_A = euler_matrix(ALPHA)
-# proposed by cvxpy (Clarabel), rounded, checked exactly (tests/test_rcm_lyapunov.py re-checks)
+# proposed by cvxpy (Clarabel), rounded, checked exactly (tests/studies/rcm/test_rcm_lyapunov.py re-checks)
 EULER_P = [[Fraction(187247, 577), Fraction(9479, 735)], [Fraction(9479, 735), Fraction(1)]]
 
 xc, vc, x_old, gs, W0 = Reals("xc vc x_old gs W0")

@@ -52,7 +52,7 @@ def test_the_kernel_imports_no_prover_or_test_library():
 
 
 def test_extraction_refuses_a_loop_it_cannot_vectorise():
-    # (refusing unproved models is the CLI's job: tests/test_extract.py)
+    # (refusing unproved models is the CLI's job: tests/kernel/test_extract.py)
     with pytest.raises(ExtractError, match="last one wins"):
         extract(library.get("sbs.ctrl2_last_wins"))
 
@@ -94,7 +94,7 @@ def kernel_gain(p, f, fp, points, normals, G, D, e):
 
 unit = st.tuples(*[st.floats(-1, 1, allow_subnormal=False)] * 3).filter(
     lambda v: np.linalg.norm(v) > 1e-3).map(lambda v: tuple(np.array(v) / np.linalg.norm(v)))
-# (tiny and huge magnitudes: tests/test_float_sound.py)
+# (tiny and huge magnitudes: tests/kernel/test_float_sound.py)
 coord = st.one_of(st.just(0.0), st.floats(-5, 5))
 vec = st.tuples(coord, coord, coord)
 
