@@ -9,7 +9,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-from certiloop.models.lang import notation
 from certiloop.models.lang.printing import show_program
 from certiloop.models.lang.terms import (
     BOOL,
@@ -53,6 +52,7 @@ class Program:
 
     def _repr_latex_(self) -> str:
         """Notebook display: the program in dL notation (annotations left out)."""
+        from certiloop.models.lang import notation  # display only: not in the checker's base
         return f"${notation.program(self)}$"
 
 

@@ -12,7 +12,6 @@ from fractions import Fraction
 from functools import cached_property
 from typing import Any, Iterable
 
-from certiloop.models.lang import notation
 from certiloop.models.lang.printing import show
 
 
@@ -176,6 +175,7 @@ class Node:
 
     def _repr_latex_(self) -> str:
         """Notebook display: the term or formula as LaTeX math."""
+        from certiloop.models.lang import notation  # display only: not in the checker's base
         return f"${notation.term(self)}$"
 
     @property

@@ -8,7 +8,6 @@ from dataclasses import dataclass, field
 from html import escape
 from typing import Callable
 
-from certiloop.models.lang import notation
 from certiloop.models.lang.printing import show, show_program
 from certiloop.models.lang.programs import (
     ODE,
@@ -165,6 +164,7 @@ class Theorem:
     @property
     def latex(self) -> str:
         """The claim `assumptions → [program] guarantee` as LaTeX math (no `$`)."""
+        from certiloop.models.lang import notation  # display only: not in the checker's base
         return notation.claim(self.assumptions, self.program, self.guarantee)
 
     def _repr_latex_(self) -> str:
@@ -174,6 +174,7 @@ class Theorem:
     def _repr_html_(self) -> str:
         """Notebook display: name, expected verdict, description, the claim in dL notation
         and, folded, as `text` (with the invariants and branch labels)."""
+        from certiloop.models.lang import notation  # display only: not in the checker's base
         about = f" — {escape(self.description)}" if self.description else ""
         formula = notation.claim(self.assumptions, self.program, self.guarantee, notation.HTML)
         return (f'<div class="certiloop-theorem"><p><b>{escape(self.name)}</b> (expected '

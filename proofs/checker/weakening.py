@@ -18,8 +18,8 @@ from certiloop.models.lang.terms import REAL, And, Implies, Node, Var, cmp, free
 from certiloop.proofs.arith.smtlib import script
 from certiloop.proofs.checker import keys
 from certiloop.proofs.checker.derive import Rejected
-from certiloop.proofs.checker.ode_facts import NotCheckable, Table, to_sympy
 from certiloop.proofs.checker.keys import Malformed, fields
+from certiloop.proofs.checker.ode_facts import NotCheckable, Table, to_sympy
 
 FIELDS = {"instances", "lowered", "abbreviations", "facts", "atoms", "smtlib"}
 BINDERS = ("forall", "exists")

@@ -20,13 +20,22 @@ def _path(module: str) -> Path | None:
     return None
 
 
+# notebook display (LaTeX, HTML): imported only inside the display members, which checking never calls
+DISPLAY = "certiloop.models.lang.notation"
+
+
 def _imported(path: Path) -> set[str]:
-    """Every certiloop module a file imports, anywhere in it (functions included)."""
+    """Every certiloop module a file imports, anywhere in it (functions included), but the
+    display module where a function imports it."""
+    tree = ast.parse(path.read_text())
+    in_functions = {id(n) for f in ast.walk(tree) if isinstance(f, ast.FunctionDef) for n in ast.walk(f)}
     out = set()
-    for node in ast.walk(ast.parse(path.read_text())):
+    for node in ast.walk(tree):
         if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("certiloop"):
             for alias in node.names:
                 sub = f"{node.module}.{alias.name}"
+                if sub == DISPLAY and id(node) in in_functions:
+                    continue
                 out.add(sub if _path(sub) is not None else node.module)
         elif isinstance(node, ast.Import):
             out.update(a.name for a in node.names if a.name.startswith("certiloop"))
@@ -70,3 +79,24 @@ def test_the_count_sees_the_checker_and_its_imports():
     modules = _closure()  # a count that missed them would pass trivially
     assert {"certiloop.proofs.checker.derive", "certiloop.models.lang.terms",
             "certiloop.proofs.arith.smtlib", "certiloop.models"} <= set(modules)
+
+
+def test_checking_never_loads_the_display_module(tmp_path):
+    """The one exclusion above holds at run time: checking a certificate in a fresh process
+    leaves notation.py unloaded (and the check accepts, so the check did run)."""
+    import json
+    import subprocess
+    import sys
+
+    from certiloop.models.library import textbook
+    from certiloop.proofs.engine.certificate_writer import certificate
+
+    path = tmp_path / "ball.json"
+    path.write_text(json.dumps(certificate(textbook.bouncing_ball(), {})))
+    code = ("import sys\n"
+            "from certiloop.proofs.checker import check_file\n"
+            f"outcome = check_file({str(path)!r})\n"
+            "assert outcome.status == 'accepted', outcome\n"
+            "assert 'certiloop.models.lang.notation' not in sys.modules\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr

@@ -670,8 +670,8 @@ def test_tight_thresholds_around_a_disc():
 
 @pytest.mark.deep
 def test_deep_sweep_random_seed():
-    """`HYPOTHESIS_PROFILE=deep python -m pytest -q tests/proofs/core/test_boxes.py`: both constructions at scale,
-    from a fresh seed each run (printed on failure, so a failure reproduces)."""
+    """`HYPOTHESIS_PROFILE=deep python -m pytest -q tests/proofs/core/test_boxes.py`: both
+    constructions at scale, from a fresh seed each run (printed on failure, so a failure reproduces)."""
     seed = random.randrange(2**32)
     d = Draw(rnd=random.Random(seed))
     for _ in range(1500):
