@@ -8,8 +8,9 @@ exiting the whole process. So such a check runs in a child forked from a fork se
 holds no z3 state: the child's count starts at the same value every time, the allocation
 bound is a deterministic budget like the units, and the parent reads the child's exit as
 `unknown`. The child can also be killed, so the wall-clock safety net really ends the call.
-(The count is the same for every check from one process; from a process started with other
-arguments or paths it can differ by up to about 0.4% (1,029 allocations in 293,000 in CI):
+(The count is nearly the same for every check from one process (33 allocations in 293,000
+apart were seen with both cores busy); from a process started with other arguments or paths
+it can differ by up to about 0.4% (1,029 allocations in 293,000 in CI):
 z3 folds a thread's count into the global one only at every 100 KB allocated, so the count
 follows the process's memory layout. A budget is at least 10,000,000, so only a check
 ending that close to its budget could end differently.)
