@@ -54,8 +54,8 @@ def entry_hints(item: Tree) -> list[Hint]:
 
 def placements(problem: Tree, scope: Scope, hints: list[Hint], notes: list[str]) -> list[Placement]:
     """Where each usable hint goes; notes say why the others are not used."""
-    loops, odes = _program_nodes(problem, scope)
-    known = _names(problem) | set(scope.variables) | set(scope.defs) | _KNOWN_CALLS
+    loops, odes, walked = _program_nodes(problem, scope)
+    known = set().union(*(_names(t) for t in walked)) | set(scope.variables) | set(scope.defs) | _KNOWN_CALLS
     parsed: list[tuple[Hint, Tree]] = []
     for h in hints:
         tree = _parse(h, known, notes)
@@ -151,13 +151,16 @@ def _program(p: Program, base: set[str]) -> Program:
     if isinstance(p, ODE):
         return ODE(p.eqs, _formula(p.domain, base), ())
     if isinstance(p, Seq):
-        return seq(*(_program(q, base) for q in p.parts
-                     if not (isinstance(q, Assign) and q.target.op == "var" and q.target.payload not in base)))
+        return seq(*(_program(q, base) for q in p.parts if not _ghost(q, base)))
     if isinstance(p, Test):
         return Test(_formula(p.cond, base))
     if hasattr(p, "alternatives"):
         return type(p)(tuple(_program(q, base) for q in p.alternatives), p.labels)
     return p
+
+
+def _ghost(p: Program, base: set[str]) -> bool:
+    return isinstance(p, Assign) and p.target.op == "var" and p.target.payload not in base
 
 
 def _formula(f: Node, base: set[str]) -> Node:
@@ -198,11 +201,13 @@ def _program_formulas(p: Program) -> list[Node]:
 # ---------------------------------------------------------------------------- the tree
 
 
-def _program_nodes(problem: Tree, scope: Scope) -> tuple[list[Tree], list[Tree]]:
-    """The loops and ODEs of the problem, in program order, definitions expanded (each once)."""
+def _program_nodes(problem: Tree, scope: Scope) -> tuple[list[Tree], list[Tree], list[Tree]]:
+    """The loops and ODEs of the problem, in program order, definitions expanded (each once),
+    and the trees read: the problem and the bodies of the definitions it uses."""
     loops: list[Tree] = []
     odes: list[Tree] = []
     seen: set[str] = set()
+    walked = [problem]
 
     def walk(t: Tree) -> None:
         if t.data == "loop" and not any(t is x for x in loops):
@@ -214,13 +219,14 @@ def _program_nodes(problem: Tree, scope: Scope) -> tuple[list[Tree], list[Tree]]
             d = scope.defs.get(name)
             if d is not None and d.body is not None and name not in seen:
                 seen.add(name)
+                walked.append(d.body)
                 walk(d.body)
         for c in t.children:
             if isinstance(c, Tree) and c.data != "annotation":
                 walk(c)
 
     walk(problem)
-    return loops, odes
+    return loops, odes, walked
 
 
 def _annotated(node: Tree) -> bool:

@@ -264,8 +264,8 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str,
         return _plain_theorem(item, name, shared, span, source)
     scope = Scope(source, dict(shared.defs), list(shared.variables), set(shared.bools))
     try:
-        declarations([c for c in item.children if isinstance(c, Tree) and c.data in ("definitions", "variables")],
-                     scope)
+        declarations([c for c in item.children
+                      if isinstance(c, Tree) and c.data in ("definitions", "variables")], scope)
     except KyxError:
         return _plain_theorem(item, name, shared, span, source)  # which raises the same error
     problem = next(c for c in item.children if isinstance(c, Tree) and c.data == "problem")
