@@ -167,3 +167,40 @@ def test_a_wrong_cut_on_a_false_flow_does_not_prove():
     End.""")
     assert any("tactic hint used" in n for n in e.notes)
     assert prove(e).verdict != "proved"
+
+
+# ---------------------------------------------------------------------------- placement
+
+TWO = """ArchiveEntry "two"
+  ProgramVariables Real x; Real y; End.
+  Problem x >= 0 & y >= 0 -> [{{ x := x + 1; }}*{first}][{{ y := y + x; }}*{second}] y >= 0 End.
+  Tactic "t" {tactic} End.
+End."""
+
+
+def loops_of(e):
+    return [p for p in _flatten(e.theorem.program) if type(p).__name__ == "Loop"]
+
+
+def test_two_loop_invariants_go_to_two_loops_in_program_order():
+    (e,) = read_entries(TWO.format(first="", second="", tactic='loop("x>=0", 1); loop("x>=0 & y>=0", 1)'))
+    (by_hand,) = read_entries(TWO.format(first="@invariant(x>=0)", second="@invariant(x>=0 & y>=0)",
+                                         tactic="QE"))
+    assert [loop.invariant.key for loop in loops_of(e)] == [loop.invariant.key for loop in loops_of(by_hand)]
+
+
+def test_one_invariant_for_two_loops_is_not_guessed():
+    (e,) = read_entries(TWO.format(first="", second="", tactic='loop("x>=0", 1)'))
+    assert [loop.invariant for loop in loops_of(e)] == [None, None]
+    assert any("not certain" in n for n in e.notes)
+
+
+def test_a_cut_goes_to_the_ode_its_position_names():
+    text = """ArchiveEntry "flows"
+      ProgramVariables Real x; Real y; End.
+      Problem x >= 0 & y >= 0 -> [{x' = 1}][{y' = 2}] x + y >= 0 End.
+      Tactic "t" dC("x>=0", 'R=="[{x'=1}][{y'=2}]x+y>=0"); dC("y>=0", 'R=="[{y'=2}]x+y>=0") End.
+    End."""
+    (e,) = read_entries(text)
+    odes = [p for p in _flatten(e.theorem.program) if type(p).__name__ == "ODE"]
+    assert [[str(i) for i in o.invariants] for o in odes] == [["x >= 0"], ["y >= 0"]]
