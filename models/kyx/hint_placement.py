@@ -84,9 +84,33 @@ def placements(problem: Tree, scope: Scope, hints: list[Hint], notes: list[str])
         if not targets:
             notes.append(f"tactic hint `{h.text}` ({h.tactic}): no ODE of the program it belongs to")
         for node in targets:
-            if not _annotated(node):
+            if _polynomial_solution(node):
+                # the prover solves such a flow; a cut chain would replace the solution, and a
+                # cut the tactic makes in one branch only fails in the others (LICS 4a)
+                notes.append(f"tactic hint `{h.text}` ({h.tactic}) not used: the ODE has a polynomial "
+                             "solution, which the prover uses")
+            elif not _annotated(node):
                 out.append(Placement(node, h, _annotation(t)))
     return out
+
+
+def _polynomial_solution(ode: Tree) -> bool:
+    """Do the ODE's equations have a polynomial solution (no rate depends, directly or through
+    others, on its own variable, and none divides)? Read on the tree: a rate that calls a
+    definition counts as not solved, so its cuts are kept."""
+    rates = {str(eq.children[0])[:-1]: eq.children[1] for eq in ode.children[0].children}
+    needs: dict[str, set[str]] = {}
+    for x, rate in rates.items():
+        if any(isinstance(t, Tree) and t.data in ("call", "differential") for t in rate.iter_subtrees()) or \
+                any(str(v) == "/" for v in rate.scan_values(lambda v: isinstance(v, Token))):
+            return False
+        needs[x] = _names(rate) & set(rates)
+    done: set[str] = set()
+    while True:
+        ready = [x for x in needs if x not in done and needs[x] <= done]
+        if not ready:
+            return len(done) == len(needs)
+        done |= set(ready)
 
 
 def chosen(build: Callable[[], Theorem], found: list[Placement], notes: list[str]) -> Theorem:
@@ -97,6 +121,7 @@ def chosen(build: Callable[[], Theorem], found: list[Placement], notes: list[str
         return plain
     base = _all_names(plain.assumptions) | _all_names(plain.guarantee) | _all_names(plain.program)
     same = claim_key(plain, base)
+    refused = _refused_guards(plain)
 
     def attempt(extra: list[Placement]) -> Theorem | None:
         for p in extra:
@@ -108,7 +133,9 @@ def chosen(build: Callable[[], Theorem], found: list[Placement], notes: list[str
         finally:
             for p in extra:
                 p.node.children.remove(p.annotation)
-        return built if claim_key(built, base) == same else None
+        if claim_key(built, base) != same or _refused_guards(built) - refused:
+            return None
+        return built
 
     everything = attempt(found)
     if everything is not None:
@@ -124,6 +151,44 @@ def chosen(build: Callable[[], Theorem], found: list[Placement], notes: list[str
         kept.append(p)
         result = trial
     return _kept(kept, result, notes)
+
+
+def _refused_guards(t: Theorem) -> set[tuple]:
+    """ODE invariant atoms `C -> a` whose condition C changes along the flow (mentions a
+    variable the flow moves) or holds a modality: the prover refuses those, so a hint that
+    adds one would lose the entry."""
+    out: set[tuple] = set()
+    for ode in _odes_in(t.program) + [o for f in (t.assumptions, t.guarantee) for o in _odes_in_formula(f)]:
+        moving = {v.payload for v in ode.variables}
+        for inv in ode.invariants:
+            for atom in _conjuncts(inv):
+                if atom.op == "implies" and (set(free_vars(atom.args[0])) & moving or _modal(atom.args[0])):
+                    out.add(atom.key)
+    return out
+
+
+def _conjuncts(f: Node) -> list[Node]:
+    if f.op == "and":
+        return [x for a in f.args for x in _conjuncts(a)]
+    if f.op == "implies" and f.args[1].op == "and":
+        return [Node("implies", (f.args[0], x), f.sort) for x in _conjuncts(f.args[1])]
+    return [f]
+
+
+def _modal(f: Node) -> bool:
+    return f.op in MODALITIES or any(_modal(a) for a in f.args)
+
+
+def _odes_in(p: Program) -> list[ODE]:
+    here = [p] if isinstance(p, ODE) else []
+    for f in _program_formulas(p):
+        here += _odes_in_formula(f)
+    return here + [o for q in children(p) for o in _odes_in(q)]
+
+
+def _odes_in_formula(f: Node) -> list[ODE]:
+    here = _odes_in(f.payload) if f.op in MODALITIES else []
+    return here + [o for a in f.args for o in _odes_in_formula(a)]
 
 
 def _kept(kept: list[Placement], theorem: Theorem, notes: list[str]) -> Theorem:
