@@ -27,7 +27,7 @@ from lark import Token, Tree
 from certiloop.models.kyx.archive import KyxError, Scope, parse_tree
 from certiloop.models.kyx.tactic_hints import Hint, tactic_hints
 from certiloop.models.lang.programs import ODE, Assign, Loop, Program, Seq, Test, children, seq
-from certiloop.models.lang.terms import MODALITIES, ModelError, Node, free_vars
+from certiloop.models.lang.terms import MODALITIES, Node, free_vars
 from certiloop.models.lang.theorem import Theorem
 
 _KNOWN_CALLS = {"old", "abs", "min", "max", "sqrt"}
@@ -128,7 +128,7 @@ def chosen(build: Callable[[], Theorem], found: list[Placement], notes: list[str
             p.node.children.append(p.annotation)
         try:
             built = build()
-        except ModelError:
+        except Exception:  # a hint never loses the entry: without it, the entry reads as before
             return None
         finally:
             for p in extra:

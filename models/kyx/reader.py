@@ -270,7 +270,11 @@ def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str,
         return _plain_theorem(item, name, shared, span, source)  # which raises the same error
     problem = next(c for c in item.children if isinstance(c, Tree) and c.data == "problem")
     notes = notes if notes is not None else []
-    found = placements(problem, scope, hints, notes)
+    try:
+        found = placements(problem, scope, hints, notes)
+    except Exception as exc:  # the hints are lost, never the entry
+        notes.append(f"the tactic's hints are not used: internal error while placing them: {exc!r}")
+        found = []
     return chosen(lambda: _plain_theorem(item, name, shared, span, source), found, notes)
 
 
