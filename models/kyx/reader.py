@@ -39,6 +39,7 @@ from certiloop.models.kyx.archive import (
     place,
 )
 from certiloop.models.kyx.expressions import Builder
+from certiloop.models.kyx.hint_placement import chosen, entry_hints, placements
 from certiloop.models.kyx.slicing import one_entry
 from certiloop.models.lang.nesting import divides, loop_nesting_problem, modal_domains, tests_have_loops
 from certiloop.models.lang.programs import (
@@ -182,6 +183,7 @@ class Entry:
     kind: str
     theorem: Theorem | None
     error: str | None  # why the entry cannot be used (not supported), with line and column
+    notes: tuple[str, ...] = ()  # which of its Tactic's invariants are used as hints, which not
 
 
 def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> list[Entry]:
@@ -217,9 +219,10 @@ def read_entries(text: str, source: str = "<kyx>", only: str | None = None) -> l
             entries.append(Entry(name, str(kind), None, None))
             continue
         span = text[item.meta.start_pos:item.meta.end_pos]
+        notes: list[str] = []
         try:
-            theorem = _entry_theorem(item, name, shared, span, source)
-            entries.append(Entry(name, str(kind), theorem, None))
+            theorem = _entry_theorem(item, name, shared, span, source, notes)
+            entries.append(Entry(name, str(kind), theorem, None, tuple(notes)))
         except ModelError as exc:
             message = str(exc)
             if not isinstance(exc, KyxError):
@@ -253,7 +256,30 @@ def _header(item: Tree) -> tuple[Token, Token, str]:
     return kind, name_tok, json.loads(str(name_tok)) if "\\" in str(name_tok) else str(name_tok)[1:-1]
 
 
-def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str) -> Theorem:
+def _entry_theorem(item: Tree, name: str, shared: Scope, span: str, source: str,
+                   notes: list[str] | None = None) -> Theorem:
+    """The entry's theorem, with the invariants its Tactic names attached where it has none
+    (hint_placement.py: hints the prover proves before it uses them); notes say which."""
+    hints = entry_hints(item)
+    if not hints:
+        return _plain_theorem(item, name, shared, span, source)
+    scope = Scope(source, dict(shared.defs), list(shared.variables), set(shared.bools))
+    try:
+        declarations([c for c in item.children
+                      if isinstance(c, Tree) and c.data in ("definitions", "variables")], scope)
+    except KyxError:
+        return _plain_theorem(item, name, shared, span, source)  # which raises the same error
+    problem = next(c for c in item.children if isinstance(c, Tree) and c.data == "problem")
+    notes = notes if notes is not None else []
+    try:
+        found = placements(problem, scope, hints, notes)
+    except Exception as exc:  # the hints are lost, never the entry
+        notes.append(f"the tactic's hints are not used: internal error while placing them: {exc!r}")
+        found = []
+    return chosen(lambda: _plain_theorem(item, name, shared, span, source), found, notes)
+
+
+def _plain_theorem(item: Tree, name: str, shared: Scope, span: str, source: str) -> Theorem:
     scope = Scope(source, dict(shared.defs), list(shared.variables), set(shared.bools))
     blocks = [c for c in item.children if isinstance(c, Tree) and c.data in ("definitions", "variables")]
     declarations(blocks, scope)
