@@ -58,10 +58,6 @@ class TheoremResult:
         proved = all(o.verdict == "proved" for o in self.nonblocking) and self.witness_replayed
         return "proved" if proved else "unknown"
 
-    @property
-    def met_expectation(self) -> bool:
-        return self.verdict == self.expected
-
     def _repr_html_(self) -> str:  # notebook display
         from certiloop.proofs.engine.display import result_html
 

@@ -10,10 +10,6 @@ from pathlib import Path
 EXIT_OK, EXIT_FOUND = 0, 1
 
 
-def is_push_scenario(name: str) -> bool:
-    return name.startswith("rcm.push")
-
-
 def run(args: argparse.Namespace, out, level: int) -> tuple[int, list[dict]]:
     """Search every named scenario; returns the exit code and the JSON documents."""
     from certiloop.cli import ui
