@@ -19,7 +19,7 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-QUICK_SHARE = 0.15  # the quick tier's aim: 5 minutes on 2 idle cores
+QUICK_SHARE = 0.12  # the quick tier's aim: 5 minutes on 2 idle cores
 HERE = Path(__file__).parent
 
 

@@ -216,6 +216,7 @@ def _edits(value):
             yield value[:m.start()] + new(m) + value[m.end():]
 
 
+@pytest.mark.slow  # proves two models for their certificates
 def test_every_value_of_a_weakening_changed_is_rejected(weakened_certificates):
     """Each string (symbol, key text) and number (hypothesis index) of the weakenings of the
     first leaves, edited so that it means something else: never accepted."""
@@ -233,6 +234,7 @@ def test_every_value_of_a_weakening_changed_is_rejected(weakened_certificates):
     assert tried > 100, tried  # every field kind was edited
 
 
+@pytest.mark.slow
 @settings(max_examples=60)
 @given(st.data())
 def test_any_string_of_a_weakening_changed_is_never_accepted(weakened_certificates, data):
