@@ -133,15 +133,15 @@ def _warm_up() -> None:
 
 def _forget_inherited_server() -> None:
     """A forked process (a pool's worker) inherits its parent's fork server, which it cannot
-    wait for as it is not its child: it starts its own when it needs one."""
+    wait for as it is not its child: it starts its own when it needs one. multiprocessing keeps
+    one server per process, so this holds whoever started it (this module, or other code)."""
     global _warm
-    if _context is None:  # this process never started one
+    _warm = False
+    forkserver = sys.modules.get("multiprocessing.forkserver")
+    if forkserver is None:  # nothing in the parent ever used one
         return
-    from multiprocessing import forkserver  # imported already, with _context
-
     server = forkserver._forkserver
     server._forkserver_pid = server._forkserver_address = None
-    _warm = False
 
 
 os.register_at_fork(after_in_child=_forget_inherited_server)

@@ -144,3 +144,38 @@ def test_a_script_without_a_main_guard_runs_once(tmp_path, how):
     assert lines.count("script body runs") == 1
     status, allocations = lines[1].split()
     assert status == "unsat" and int(allocations) > 0  # it ran in a child
+
+
+FORKED_AFTER_OTHER_SERVER = """
+import multiprocessing
+from multiprocessing import forkserver
+
+from certiloop.models.lang.terms import ForAll, Implies, Real, cmp
+from certiloop.proofs.core.solver import check_valid
+
+
+def in_worker():
+    x, y = Real("x"), Real("y")
+    answer = check_valid(Implies(ForAll(y, cmp(">=", x * y * y, 0)), cmp(">=", x, 0)), 2_000_000)
+    return f"{answer.status} {answer.allocations > 0}"  # a quantified claim: checked in a child
+
+
+if __name__ == "__main__":
+    forkserver.ensure_running()  # other code's server: this process never ran an isolated check
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        print(pool.apply(in_worker))
+"""
+
+
+def test_a_forked_worker_checks_though_other_code_started_the_fork_server(tmp_path):
+    """multiprocessing keeps one fork server per process; a forked worker cannot wait for its
+    parent's, whoever started it, and must start its own (a test harness's server once made
+    every isolated check of a pool's worker fail with 'No child processes')."""
+    import subprocess
+    import sys
+
+    script = tmp_path / "forked.py"
+    script.write_text(FORKED_AFTER_OTHER_SERVER)
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.split() == ["unsat", "True"]
