@@ -6,6 +6,63 @@ Its names load on first use (PEP 562): `certiloop list` and `--help` reach the m
 from __future__ import annotations
 
 from importlib import import_module
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # the same names for type checkers, IDEs and the documentation (read statically)
+    from certiloop.models.lang.programs import (
+        ODE,
+        Assign,
+        Choice,
+        Havoc,
+        Loop,
+        Program,
+        Seq,
+        Test,
+        assign,
+        assign_min,
+        branch,
+        choice,
+        for_range,
+        foreach,
+        havoc,
+        if_,
+        loop,
+        ode,
+        seq,
+        skip,
+        test,
+    )
+    from certiloop.models.lang.roles import Roles
+    from certiloop.models.lang.terms import (
+        BOOL,
+        FALSE,
+        INT,
+        REAL,
+        TRUE,
+        And,
+        Array,
+        Bool,
+        Box,
+        Diamond,
+        Exists,
+        Family,
+        ForAll,
+        Iff,
+        Implies,
+        IndexSort,
+        Int,
+        Ints,
+        Ite,
+        ModelError,
+        Node,
+        Not,
+        Or,
+        Real,
+        Reals,
+        Var,
+        dot,
+    )
+    from certiloop.models.lang.theorem import Theorem
 
 _HOME = {
     **dict.fromkeys((

@@ -178,3 +178,16 @@ def test_no_two_modules_share_a_name_for_different_jobs():
             seen.setdefault(path.name, []).append(name)
     shared = {file: names for file, names in seen.items() if len(names) > 1 and file not in SAME_JOB}
     assert shared == {}
+
+
+def test_the_lazy_language_names_are_the_statically_visible_ones():
+    """certiloop.models loads its names on first use; the same names are imported under
+    TYPE_CHECKING for type checkers, IDEs and the documentation. The two lists agree."""
+    import certiloop.models as models
+
+    tree = ast.parse((ROOT / "models" / "__init__.py").read_text())
+    static = {alias.name for block in ast.walk(tree) if isinstance(block, ast.If)
+              and ast.unparse(block.test) == "TYPE_CHECKING" for node in ast.walk(block)
+              if isinstance(node, ast.ImportFrom) for alias in node.names}
+    assert static == set(models.__all__)
+    assert all(getattr(models, name) is not None for name in static)
