@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import re
+from collections.abc import Sequence
 from fractions import Fraction
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test
@@ -184,8 +185,10 @@ def _kyx_names(t: Theorem) -> dict[str, str]:
     return out
 
 
-def to_kyx(t: Theorem) -> str:
-    """One ArchiveEntry for the theorem; raises NotExpressible if .kyx cannot say it."""
+def to_kyx(t: Theorem, proof_notes: Sequence[str] | None = None) -> str:
+    """One ArchiveEntry for the theorem; raises NotExpressible if .kyx cannot say it.
+    proof_notes: the annotations are a proof's (`export --with-proof`), and these are the
+    steps of that proof that have no annotation; they go into the metadata comment."""
     names = _kyx_names(t)
     pr = _Printer(t, names)
     if t.well_defined or t.defined_if:  # written as assumptions, the pins would prove what is ill-defined
@@ -207,6 +210,9 @@ def to_kyx(t: Theorem) -> str:
         "scenarios": [pr.formula(s) for s in t.scenarios],
         "names": {kyx: ours for ours, kyx in names.items()},
     }
+    if proof_notes is not None:
+        meta["proof"] = {"annotations": "the loop invariants and differential cuts of certiloop's proof",
+                         "not_annotated": list(proof_notes)}
     if t.roles is not None:  # certiloop's own names, as the reader gives them back
         meta["roles"] = {"environment": list(t.roles.environment_names),
                          "controls": list(t.roles.control_names)}
@@ -225,6 +231,8 @@ def to_kyx(t: Theorem) -> str:
     return text
 
 
-def write_archive(theorems: list[Theorem]) -> str:
-    """An archive of several theorems; raises NotExpressible for the first that cannot be said."""
-    return "\n".join(to_kyx(t) for t in theorems)
+def write_archive(theorems: list[Theorem], proof_notes: Sequence[Sequence[str]] | None = None) -> str:
+    """An archive of several theorems; raises NotExpressible for the first that cannot be said.
+    proof_notes: for each theorem, what its proof used that no annotation says (see to_kyx)."""
+    notes = [None] * len(theorems) if proof_notes is None else proof_notes
+    return "\n".join(to_kyx(t, n) for t, n in zip(theorems, notes, strict=True))
