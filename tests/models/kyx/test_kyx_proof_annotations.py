@@ -28,7 +28,8 @@ from certiloop.falsify.choosers import RandomChooser
 from certiloop.falsify.evaluate import Blocked, Compiler
 from certiloop.falsify.interpreter import Interpreter
 from certiloop.falsify.store import Rejected
-from certiloop.models.kyx import read_entries
+from certiloop.models import library
+from certiloop.models.kyx import NotExpressible, read_entries, write_archive
 from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq, ode, written
 from certiloop.models.lang.terms import And, Node, Not, Or, Reals, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -46,6 +47,14 @@ LOOPED = Theorem("looped", And(x >= 0, y > 0),
                  loop(seq(choice(assign(y, y + 1), assign(x, x + y)), ode({x: 1 + y**2, y: -y}))),
                  And(x >= 0, y > 0))
 '''
+
+
+def _inexpressible(t: Theorem) -> bool:
+    try:
+        write_archive([t])
+    except NotExpressible:
+        return True
+    return False
 
 
 def run(*args):
@@ -82,12 +91,16 @@ def nodes(p: Program, at: str = "0"):
         yield from nodes(q, f"{at}.{n}")
 
 
-def certified(theorem: Theorem) -> dict:
-    """address -> the formulas the proof's certificate records there (parsed by the checker's
-    reader): a loop's invariant (the guarantee where it records none), an ODE's cut chain."""
+def proof_of(theorem: Theorem) -> dict:
+    """The certificate of the theorem's proof, as `prove --certificate` writes it."""
     result = prove(theorem)
     assert result.verdict == "proved", result.reason
-    doc = json.loads(json.dumps(certificate(*result.proof, result.obligations)))
+    return json.loads(json.dumps(certificate(*result.proof, result.obligations)))
+
+
+def certified(theorem: Theorem, doc: dict) -> dict:
+    """address -> the formulas the proof's certificate records there (parsed by the checker's
+    reader): a loop's invariant (the guarantee where it records none), an ODE's cut chain."""
     out = {}
     for rule in doc["rules"]:
         if rule["rule"] == "loop":
@@ -98,6 +111,13 @@ def certified(theorem: Theorem) -> dict:
         elif rule["rule"] in ("solve", "dW"):
             out[rule["at"]] = []
     return out
+
+
+def same(a: dict, b: dict) -> bool:
+    """The same formulas at the same addresses, node for node."""
+    def keyed(d: dict) -> dict:
+        return {at: [f.key for f in fs] for at, fs in d.items()}
+    return keyed(a) == keyed(b)
 
 
 def annotations(theorem: Theorem) -> dict:
@@ -122,10 +142,8 @@ def test_the_archive_read_back_proves_every_entry(exported):
 def test_the_annotations_read_back_are_the_certificates_formulas(exported, models):
     own = {"grows": f"{models}:GROWS", "looped": f"{models}:LOOPED"}
     for name, entry in exported["entries"].items():
-        want = certified(load(own.get(name, name)))
-        got = annotations(entry.theorem)
-        assert {at: [f.key for f in fs] for at, fs in got.items()} == \
-            {at: [f.key for f in fs] for at, fs in want.items()}, name
+        model = load(own.get(name, name))
+        assert same(annotations(entry.theorem), certified(model, proof_of(model))), name
     # the proof found the cuts of the unannotated flow: Darboux for y, and the guarantee's x > -1
     (ode,) = [p for _, p in nodes(exported["entries"]["grows"].theorem.program) if isinstance(p, ODE)]
     assert {str(c) for c in ode.invariants} >= {"y > 0", "x > -1"}
@@ -139,6 +157,23 @@ def test_what_has_no_annotation_is_said_in_the_metadata(exported):
     # KeYmaera X's syntax: the loop's invariant after `}*`, the cut chain after the ODE's `}`
     text = exported["text"]
     assert re.search(r"\}\*@invariant\(", text) and re.search(r"-y\}@invariant\(", text)
+
+
+@pytest.mark.slow
+def test_every_library_proof_exports_and_proves_again():
+    """Each library model expected proved that .kyx can express (integers and arrays it cannot)."""
+    done = []
+    for name in library.names():
+        model = library.get(name)
+        if model.expected != "proved" or _inexpressible(model):
+            continue
+        doc = proof_of(model)
+        got = annotate(model, doc)
+        (entry,) = read_entries(write_archive([got.theorem], [got.notes]), f"{name}.kyx")
+        assert same(annotations(entry.theorem), certified(model, doc)), name
+        assert prove(entry.theorem).verdict == "proved", name
+        done.append(name)
+    assert len(done) >= 30 and "textbook.bouncing_ball" in done and "sbs.ctrl1" in done
 
 
 def test_a_model_not_proved_stops_the_export_with_one_line(tmp_path):
@@ -160,6 +195,28 @@ def test_the_proofs_chain_replaces_a_shorter_one_of_the_author():
     (flow,) = [p for _, p in nodes(got.theorem.program)]
     assert [str(c) for c in flow.invariants] == ["y > 0", "x > -1"]
     assert got.notes == ("the ODE {x' = 1 + y^2, y' = -y}: the cut y > 0 was proved by dbx with cofactor -1",)
+
+
+SPRING = """ArchiveEntry "spring, overdamped"
+  Definitions Real k; Real c; End.
+  ProgramVariables Real x; Real y; End.
+  Problem x = 0 & k > 0 & c > 0 & c^2 > 4*k
+    -> [ { x := *; ?x > 0; y := 0; {x' = y, y' = -k*x - c*y} }* ] x >= 0
+  End.
+End."""
+
+
+def test_cuts_through_the_proofs_own_ghost_are_left_out_and_said():
+    # the overdamped spring is proved with an eigenvalue ghost `eig` (proofs/engine/eigen.py)
+    (entry,) = read_entries(SPRING)
+    result = prove(entry.theorem)
+    got = annotate(entry.theorem, certificate(*result.proof, result.obligations))
+    (flow,) = [p for _, p in nodes(got.theorem.program) if isinstance(p, ODE)]
+    assert flow.invariants and all("eig" not in free_vars(c) for c in flow.invariants)
+    assert any(n.startswith("the proof's ghost `eig`") for n in got.notes)
+    assert any("uses the proof's own symbols and is left out" in n for n in got.notes)
+    (again,) = read_entries(write_archive([got.theorem], [got.notes]))
+    assert prove(again.theorem).verdict == "proved"  # certiloop finds the ghost again
 
 
 # --------------------------------------------------------------------------- independent witnesses
