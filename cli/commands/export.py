@@ -20,7 +20,7 @@ def add_parser(sub) -> None:
         "With --with-proof, each model is proved first and the archive carries its proof's "
         "annotations instead: every loop's invariant and every ODE's differential-cut chain "
         "(@invariant(c1, c2, ...), cut in that order); a model that is not proved stops the "
-        "export (exit 1, nothing written).")
+        "export (exit 1, nothing written). --rlimit, --timeout and --jobs are the proof's budget.")
     export.add_argument("models", nargs="+", metavar="MODEL", help="library name, family or file")
     export.add_argument("--kyx", action="store_true", required=True, help="the format (the only one)")
     export.add_argument("-o", "--output", metavar="FILE", help="write the archive to FILE (default: stdout)")
