@@ -54,7 +54,21 @@ def _eq(a: Node, b: Node) -> Node:
     return Iff(a, b) if a.sort == BOOL else cmp("==", a, b)
 
 
+_STORES_ELIMINATED = NodeMemo()
+
+
 def eliminate_stores(f: Node) -> Node:
+    """Every read over a write split into its two cases (kept per node: the obligations of a
+    model share their hypotheses)."""
+    if not _has(f, "store"):
+        return f  # no read over a write below: the walk would rebuild nothing
+    got = _STORES_ELIMINATED.get(f)
+    if got is None:
+        got = _STORES_ELIMINATED.put(f, _eliminate_stores(f))
+    return got
+
+
+def _eliminate_stores(f: Node) -> Node:
     if f.op in ("and", "or", "not", "implies", "iff", "forall", "exists"):
         return rebuild(f, tuple(eliminate_stores(a) for a in f.args))
     read = _find_read_over_write(f)
@@ -117,9 +131,45 @@ def _mentions(n: Node, names: frozenset[str]) -> bool:
     return (n.op == "var" and n.payload in names) or any(_mentions(a, names) for a in n.args)
 
 
+_READ_NAMES = NodeMemo()
+
+
 def read_name(read: Node) -> str:
-    array, *idx = read.args
-    return f"{array.payload}[{','.join(str(i) for i in idx)}]"
+    got = _READ_NAMES.get(read)
+    if got is None:
+        array, *idx = read.args
+        got = _READ_NAMES.put(read, f"{array.payload}[{','.join(str(i) for i in idx)}]")
+    return got
+
+
+_READS = NodeMemo()
+_NESTED = "nested reads"
+
+
+def _reads(n: Node) -> dict[str, Node] | None:
+    """The array reads in `n` by `read_name`, in the order they first occur; None if an index
+    reads an array itself. Kept per node: a model's obligations share their hypotheses."""
+    if not n.args:
+        return {}
+    got = _READS.get(n)
+    if got is None:
+        got = _READS.put(n, _find_reads(n))
+    return None if got is _NESTED else got
+
+
+def _find_reads(n: Node) -> dict[str, Node] | str:
+    if n.op == "select":
+        if n.args[0].op != "var" or any(_has(i, "select") for i in n.args[1:]):
+            return _NESTED
+        return {read_name(n): n}
+    out: dict[str, Node] = {}
+    for a in n.args:
+        got = _reads(a)
+        if got is None:
+            return _NESTED
+        for name, read in got.items():
+            out.setdefault(name, read)
+    return out
 
 
 def lower(formula: Node, reads_out: dict[str, tuple] | None = None) -> Node | None:
@@ -130,20 +180,9 @@ def lower(formula: Node, reads_out: dict[str, tuple] | None = None) -> Node | No
     f = eliminate_stores(formula)
     if _has(f, "store") or not _quantifiers_keepable(f, frozenset()):
         return None
-    reads: dict[str, Node] = {}
-
-    def collect(n: Node) -> None:
-        if n.op == "select":
-            if n.args[0].op != "var" or any(_has(i, "select") for i in n.args[1:]):
-                raise ValueError("nested reads")
-            reads.setdefault(read_name(n), n)
-        for a in n.args:
-            collect(a)
-
-    try:
-        collect(f)
-    except ValueError:
-        return None
+    reads = _reads(f)
+    if reads is None:
+        return None  # nested reads
     mapping = {k: Var(k, _lowered_sort(r.sort)) for k, r in reads.items()}
     if reads_out is not None:
         reads_out.update({k: (r.args[0].payload, r.args[1:]) for k, r in reads.items()})

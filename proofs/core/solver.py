@@ -14,6 +14,7 @@ except ImportError as exc:  # pragma: no cover - exercised by the CLI's missing-
 from certiloop.models.lang.terms import BOOL, REAL, Node
 from certiloop.proofs.core import isolated
 from certiloop.proofs.core.answers import SolverAnswer
+from certiloop.proofs.core.instantiate import has_quantifier
 from certiloop.proofs.core.interval import Interval
 from certiloop.proofs.core.onepoint import eliminate_defined
 from certiloop.proofs.core.simplify import simplify
@@ -21,7 +22,7 @@ from certiloop.proofs.core.z3terms import Z3Translator
 
 
 def _quantifier_free(n: Node) -> bool:
-    return n.op not in ("forall", "exists") and all(_quantifier_free(a) for a in n.args)
+    return not has_quantifier(n)
 
 
 def _no_sorts(n: Node) -> bool:

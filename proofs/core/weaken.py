@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Callable, Iterator
 
-from certiloop.models.lang.terms import INT, Node
+from certiloop.models.lang.terms import INT, Node, NodeMemo
 from certiloop.proofs.core.abstraction import Instance, abstract, congruences, fresh_instances, lower_term
 from certiloop.proofs.core.instantiate import instantiate
 from certiloop.proofs.core.lowering import lower
@@ -40,10 +40,18 @@ def _all_weakened(formula: Node, abbreviations: dict[str, Node], find_instances:
         yield from _weakened(formula, abbreviations, find_instances, wide=True)
 
 
+_INTEGER_QUANTIFIERS = NodeMemo()
+
+
 def _quantifies_integers(n: Node) -> bool:
     if n.op in ("forall", "exists") and any(v.sort == INT for v in n.payload):
         return True
-    return any(_quantifies_integers(a) for a in n.args)
+    if not n.args:
+        return False
+    got = _INTEGER_QUANTIFIERS.get(n)
+    if got is None:
+        got = _INTEGER_QUANTIFIERS.put(n, any(_quantifies_integers(a) for a in n.args))
+    return got
 
 
 def _weakened(formula: Node, abbreviations: dict[str, Node], find_instances: FindInstances, wide: bool):
@@ -65,5 +73,15 @@ def _weakened(formula: Node, abbreviations: dict[str, Node], find_instances: Fin
         yield f"z3 ({', '.join(steps)})", base
 
 
+_ARRAYS = NodeMemo()
+
+
 def _has_arrays(n: Node) -> bool:
-    return n.op in ("select", "store") or any(_has_arrays(a) for a in n.args)
+    if n.op in ("select", "store"):
+        return True
+    if not n.args:
+        return False
+    got = _ARRAYS.get(n)
+    if got is None:
+        got = _ARRAYS.put(n, any(_has_arrays(a) for a in n.args))
+    return got
