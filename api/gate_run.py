@@ -44,6 +44,8 @@ class GateEntry:
     inconsistent: bool = False  # proofs and a confirmed run disagree: a certiloop bug
     cached: bool = False
     vacuous: str = ""  # why the proof says nothing (unsatisfiable assumptions, a blocked first step)
+    checked: str | None = None  # the proof checker's message on the proof's certificate (proved models)
+    certificate: dict[str, Any] | None = field(default=None, repr=False)  # the one it checked; cached apart
 
     @property
     def alarm(self) -> bool:
@@ -103,7 +105,7 @@ class GateEntry:
                 "counterexample": self.counterexample, "replay": self.replay, "falsify": self.falsify,
                 "kernel": self.kernel, "nonblocking": self.nonblocking, "obligations": self.obligations,
                 "cross_check": self.cross_check, "inconsistent": self.inconsistent, "cached": self.cached,
-                "passed": self.passed, "message": self.message,
+                "passed": self.passed, "message": self.message, "checked": self.checked,
                 **({"vacuous": self.vacuous} if self.vacuous else {})}
 
     @classmethod
@@ -111,7 +113,7 @@ class GateEntry:
         keep = {k: data.get(k) for k in ("model", "expected", "verdict", "seconds", "obligations", "reason",
                                          "counterexample", "replay", "falsify", "kernel", "nonblocking",
                                          "cross_check", "inconsistent")}
-        return cls(**keep, cached=True, vacuous=data.get("vacuous", ""))
+        return cls(**keep, cached=True, vacuous=data.get("vacuous", ""), checked=data.get("checked"))
 
 
 AHEAD = 2  # falsifiers queued ahead of the model being proved: while the main process builds
@@ -153,6 +155,7 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
     if falsifier is None:
         falsifier = prover.submit(falsify_task, theorem, opts)
     result = prover.prove(theorem)
+    checked = _check_proof(result)
     replay = None
     if result.run is not None:  # the engine's independent checks of its run
         replay = {"violated": result.run.replayed and result.run.flows_confirmed,
@@ -171,7 +174,33 @@ def check_model(theorem: Theorem, prover: Prover, opts: GateOptions,
     data = result.to_json()
     return GateEntry(theorem.name, theorem.expected, result.verdict, time.perf_counter() - start,
                      data["obligations"], result.reason, data["counterexample"], replay, summary, kernel,
-                     data.get("nonblocking"), opinion, result.inconsistent, vacuous=result.vacuous)
+                     data.get("nonblocking"), opinion, result.inconsistent, vacuous=result.vacuous,
+                     checked=checked.message if checked else None,
+                     certificate=checked.certificate if checked and checked.accepted else None)
+
+
+def _check_proof(result):
+    """Nothing is `proved` in the gate unless the proof checker accepted its certificate (checked
+    here, while this model's falsifier runs on a worker): a rejected proof is `unknown`, with the
+    checker's reason."""
+    if result.verdict != "proved":
+        return None
+    from certiloop.proofs.engine.checked import check_proof, rejected_reason
+
+    checked = check_proof(result.proof, result.obligations)
+    if not checked.accepted:
+        result.verdict, result.reason = "unknown", rejected_reason(checked.message)
+    return checked
+
+
+def _certificate_key(cache, key: str) -> str:
+    return cache.key("certificate", key)
+
+
+def _certificate_kept(cache, key: str, hit: dict) -> bool:
+    """A cached proved entry counts only with the certificate the checker accepted beside it."""
+    return hit.get("verdict") != "proved" or not hit.get("checked") or \
+        cache.get(_certificate_key(cache, key)) is not None
 
 
 def _unsupported(model: str, reason: str, expected: str = "proved") -> GateEntry:
@@ -192,6 +221,8 @@ def run_gate(theorems: list, start_prover: Callable[[], Prover], rlimit: int,
     keys = [cache.key("gate", f"{t.canonical}\n{setting}") if cache and isinstance(t, Theorem) else None
             for t in theorems]
     hits = [cache.get(key) if key else None for key in keys]
+    hits = [hit if hit is None or _certificate_kept(cache, key, hit) else None
+            for key, hit in zip(keys, hits)]
     todo = [i for i, (t, hit) in enumerate(zip(theorems, hits)) if hit is None and isinstance(t, Theorem)]
     if todo:
         _import_for_workers()
@@ -221,6 +252,8 @@ def run_gate(theorems: list, start_prover: Callable[[], Prover], rlimit: int,
                 entry = _unsupported(theorem.name, f"internal error: {type(exc).__name__}: {exc} "
                                      "(set CERTILOOP_DEBUG=1 for the traceback)", theorem.expected)
             if cache and entry.verdict not in ("unknown", "not supported"):  # a budget may be raised
+                if entry.certificate is not None:  # the certificate the checker accepted, beside the verdict
+                    cache.put(_certificate_key(cache, key), entry.certificate)
                 cache.put(key, entry.to_json())
         if cache and entry.verdict == "proved":  # lets `certiloop extract` skip the proof
             cache.put(cache.key("proof", theorem.canonical), {"model": theorem.name, "verdict": "proved"})

@@ -151,6 +151,8 @@ def _model(i: int, e: GateEntry) -> str:
 
 def _checks(e: GateEntry) -> str:
     items = []
+    if e.checked is not None:
+        items.append(f"proof checker: {e.checked}")
     if e.falsify:
         f = e.falsify
         what = f"falsifier: {f.get('verdict')} after {f.get('examples')} examples"

@@ -42,13 +42,14 @@ def show_gate(out: Console, entries: list[GateEntry], cross_check: bool, level: 
 
 def _full_table(out: Console, entries: list[GateEntry], cross_check: bool) -> Table:
     table = ui.table(out, title="certiloop gate")
-    columns = ("model", "expected", "verdict", "obligations", "step runs", "falsifier", "replay", "kernel",
-               *(("cvc5",) if cross_check else ()), "s", "gate")
+    columns = ("model", "expected", "verdict", "obligations", "checker", "step runs", "falsifier", "replay",
+               "kernel", *(("cvc5",) if cross_check else ()), "s", "gate")
     for col in columns:
         table.add_column(col, no_wrap=True)
     for e in entries:
         checks = _checks(e)
-        table.add_row(escape(e.model), e.expected, verdict_text(e.verdict), _proved(e), checks["step runs"],
+        table.add_row(escape(e.model), e.expected, verdict_text(e.verdict), _proved(e), checks["checker"],
+                      checks["step runs"],
                       checks["falsifier"], checks["replay"], checks["kernel"],
                       *((checks["cvc5"],) if cross_check else ()), _seconds(e), _gate_text(e))
     return table
@@ -70,6 +71,8 @@ def _checks(e: GateEntry) -> dict[str, str]:
         cvc5 = f"{e.cross_check['confirmed']}/{e.cross_check['checked']}" + (
             " DISAGREES" if e.cross_check["disagreements"] else "")
     return {
+        "checker": "-" if e.checked is None else "accepted" if e.checked.startswith("accepted")
+        else "REJECTED",
         "step runs": "-" if e.nonblocking is None else e.nonblocking["verdict"],
         "falsifier": e.falsify.get("verdict", "-"),
         "replay": "-" if e.replay is None else ("violates" if e.replay["violated"] else "FAILS"),

@@ -125,21 +125,15 @@ def check_proof(result) -> None:
     the verdict becomes unknown, with the checker's message as the reason."""
     if result.verdict != "proved":
         return
-    import json
+    from certiloop.proofs.engine.checked import check_proof as checked
+    from certiloop.proofs.engine.checked import rejected_reason
 
-    from certiloop.proofs.checker import check
-    from certiloop.proofs.engine.certificate_writer import certificate
-
-    if result.proof is None:
-        message = "rejected: the proof has no certificate to check"
-    else:
-        doc = json.loads(json.dumps(certificate(*result.proof, result.obligations)))
-        message = check(doc).message
-    if message.startswith("accepted"):
-        result.extra["checked"] = message
+    outcome = checked(result.proof, result.obligations)
+    if outcome.accepted:
+        result.extra["checked"] = outcome.message
     else:
         result.verdict = "unknown"
-        result.reason = f"proved, but the proof checker did not accept its certificate: {message}"
+        result.reason = rejected_reason(outcome.message)
 
 
 def cross_check(result) -> None:
