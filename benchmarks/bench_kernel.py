@@ -5,9 +5,9 @@
     python benchmarks/bench_kernel.py --compare /tmp/oldvenv/bin/python [--rounds 5] [--calls 1000]
 
 --compare measures `step` of this install and of another one (its python, e.g. a virtualenv
-with commit a42bfa6 installed) side by side: interleaved rounds, each a fresh worker process
+with commit ae9f168 installed) side by side: interleaved rounds, each a fresh worker process
 per install (`--worker`), the same planes and states; medians over rounds of per-round
-medians, written to results/kernel_compare.json. This install's step runs on its default back
+medians and p99s, and the slowest call of all rounds, written to results/kernel_compare.json. This install's step runs on its default back
 end (the compiled C when a compiler is there, see certiloop.studies.sbs.native); with
 CERTILOOP_KERNEL=python in the environment it runs the numpy path, written to
 results/kernel_compare_numpy.json.
@@ -26,8 +26,12 @@ import time
 import numpy as np
 from common import latency, record
 
-from certiloop.studies.sbs.fixture import VirtualFixture
-from certiloop.studies.sbs.generated import ctrl2
+try:
+    from certiloop.studies.sbs.fixture import VirtualFixture
+    from certiloop.studies.sbs.generated import ctrl2
+except ImportError:  # an older install (--compare's other side): the kernel before the studies moved
+    from certiloop.kernel import ctrl2  # type: ignore[no-redef]
+    from certiloop.kernel.fixture import VirtualFixture  # type: ignore[no-redef]
 
 
 def planes(m: int, rng) -> list:
@@ -74,7 +78,7 @@ SIZES = (1, 10, 100, 1000)
 
 
 def worker(calls: int) -> dict:
-    """`step` medians (µs) for every size: only API both installs have."""
+    """`step` median, p99 and max (µs) for every size: only API both installs have."""
     rng = np.random.default_rng(0)
     out = {}
     for m in SIZES:
@@ -82,7 +86,7 @@ def worker(calls: int) -> dict:
                                  position_tolerance=np.inf)
         p, f, fp = np.zeros(3), np.array([1.0, -2.0, 0.5]), np.array([0.1, 0.0, -0.3])
         fixture.step(p, f, fp)
-        out[m] = median_us(lambda fx=fixture, p=p, f=f, fp=fp: fx.step(p, f, fp), calls)
+        out[m] = timed_us(lambda fx=fixture, p=p, f=f, fp=fp: fx.step(p, f, fp), calls)
     return out
 
 
@@ -97,11 +101,13 @@ def compare(old_python: str, rounds: int, calls: int) -> None:
     rows = []
     numpy_only = os.environ.get("CERTILOOP_KERNEL", "").lower() == "python"
     for m in SIZES:
-        old = statistics.median(r[m] for r in runs["old"])
-        new = statistics.median(r[m] for r in runs["new"])
-        rows.append({"boundaries": m, "new_backend": "python" if numpy_only else "default",
-                     "old_step_us": round(old, 1), "new_step_us": round(new, 1),
-                     "speedup": round(old / new, 2), "rounds": rounds, "calls": calls})
+        row = {"boundaries": m, "new_backend": "python" if numpy_only else "default"}
+        for side in ("old", "new"):  # medians of the rounds' medians and p99s; the worst call of all
+            row[f"{side}_step_median_us"] = round(statistics.median(r[m]["median_us"] for r in runs[side]), 1)
+            row[f"{side}_step_p99_us"] = round(statistics.median(r[m]["p99_us"] for r in runs[side]), 1)
+            row[f"{side}_step_max_us"] = round(max(r[m]["max_us"] for r in runs[side]), 1)
+        row["speedup"] = round(row["old_step_median_us"] / row["new_step_median_us"], 2)
+        rows.append({**row, "rounds": rounds, "calls": calls})
     record("kernel_compare_numpy" if numpy_only else "kernel_compare", rows)
 
 

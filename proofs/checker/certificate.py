@@ -158,7 +158,7 @@ def _read(doc: object) -> tuple[Theorem, dict[str, tuple[str, object]]]:
 
 
 def _in_fragment(t: Theorem) -> None:
-    for what, present in (("ghost", t.ghosts), ("witness", t.witnesses), ("well-defined", t.well_defined),
+    for what, present in (("witness", t.witnesses), ("well-defined", t.well_defined),
                           ("defined-if", t.defined_if)):
         if present:
             raise NotCheckable(f"rule {what} not checkable yet")

@@ -6,6 +6,8 @@ a term over fresh symbols x@n) and the path of step labels taken. Rules:
   x := e      [x:=e]P <-> P(e)                 x := *   fresh symbol, any value
   ?Q          Q joins the facts                a; b     [a][b]P
   a ∪ b       each alternative, its label on the path
+  ghost g: F  ∃g F holds under the assumptions; then F is assumed (g is fresh: the claim and
+              the program never mention it, so the proof holds whatever g is)
   a* inv J    J holds initially; J -> [a]J (written variables fresh); J -> what follows
   ODE solve   a recorded solution x(s), checked by differentiation; fresh duration t >= 0 with
               the domain along [0, t]; variables take their values at t
@@ -22,7 +24,7 @@ from dataclasses import dataclass
 from typing import Callable
 
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
-from certiloop.models.lang.terms import REAL, And, Implies, Node, Var, store, substitute
+from certiloop.models.lang.terms import REAL, And, Exists, Implies, Node, Var, free_vars, store, substitute
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.checker.defined import defined, divides
 from certiloop.proofs.checker.ode_facts import NotCheckable, check_solution, premise, runs_along
@@ -67,6 +69,11 @@ class Derivation:
     def run(self) -> list[Leaf]:
         self.require(State((), {}, ()), "the assumptions", self.theorem.assumptions)
         start = State((self.theorem.assumptions,), {}, ())
+        for name, fact in self.theorem.ghosts:  # fresh names (Theorem checks): one exists, then any
+            at = start.at(f"ghost {name}: {fact}")
+            self.require(at, f"the fact about the ghost {name}", fact)
+            self.emit(at, Exists((free_vars(fact)[name],), fact), "exists")
+            start = start.assume(fact)
         self.exec(self.theorem.program, "0", start, self.postcondition)
         return self.leaves
 

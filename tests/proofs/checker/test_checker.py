@@ -3,12 +3,13 @@ is the formula hand mathematics gives, wrong hints are rejected, rules not cover
 refused with exit 1, and the command's exit codes and SMT-LIB export."""
 
 import json
+from dataclasses import replace
 
 import z3
 
 from certiloop.cli.main import main
 from certiloop.models.lang.programs import assign, loop, ode, seq, test
-from certiloop.models.lang.terms import And, Implies, Reals
+from certiloop.models.lang.terms import And, Exists, Implies, Reals, cmp
 from certiloop.models.lang.theorem import Theorem
 from certiloop.models.library import textbook
 from certiloop.proofs.arith.smtlib import script
@@ -131,3 +132,29 @@ def test_prove_check_reports_checked_and_never_keeps_a_rejected_proof(monkeypatc
     assert main(["prove", "textbook.water_tank", "--check"]) == 1
     text = " ".join(capsys.readouterr().out.split())  # the console wraps long lines
     assert "textbook.water_tank: unknown" in text and "rejected: leaf o2 (tampered)" in text
+
+
+def test_a_ghost_is_checked_by_its_existence_leaf_then_assumed():
+    """x = 0 -> [x := x + 1] x >= 0 with a ghost g0 and the fact g0*g0 >= 1: hand mathematics
+    gives two leaves, x = 0 -> ∃g0 g0*g0 >= 1, and x = 0 & g0*g0 >= 1 -> x + 1 >= 0."""
+    g0 = Reals("g0")[0]
+    t = Theorem("tiny.ghost", cmp("==", x, 0), assign(x, x + 1), x >= 0, ghosts=(("g0", g0 * g0 >= 1),))
+    doc = _doc(t)
+    assert [leaf["path"] for leaf in doc["leaves"]] == ["ghost g0: g0*g0 >= 1 / exists", "postcondition"]
+    assert doc["leaves"][0]["smtlib"] == script(Implies(cmp("==", x, 0), Exists((g0,), g0 * g0 >= 1)))
+    assert doc["leaves"][1]["smtlib"] == script(Implies(And(cmp("==", x, 0), g0 * g0 >= 1), x + 1 >= 0))
+    assert check(doc).status == "accepted"
+    # a ghost whose fact has no solution would let the proof assume false: its leaf fails
+    impossible = _doc(replace(t, ghosts=(("g0", g0 * g0 < 0),)))
+    outcome = check(impossible)
+    assert outcome.status == "rejected" and "leaf o1 (ghost g0" in outcome.message
+    # the certificate's ghost fact changed to another (its hash made to match): leaves differ
+    import hashlib
+
+    tampered = json.loads(json.dumps(doc))
+    text = tampered["theorem"]["canonical"]
+    fact = text.index("('ghosts'")
+    text = text[:fact] + text[fact:].replace("'>='", "'>'", 1)
+    tampered["theorem"].update(canonical=text, hash=hashlib.sha256(text.encode()).hexdigest()[:16])
+    outcome = check(tampered)
+    assert outcome.status == "rejected" and "tree" in outcome.message  # the ghost is on the path
