@@ -7,8 +7,9 @@
 --compare measures `step` of this install and of another one (its python, e.g. a virtualenv
 with commit ae9f168 installed) side by side: interleaved rounds, each a fresh worker process
 per install (`--worker`), the same planes and states; medians over rounds of per-round
-medians and p99s, and the slowest call of all rounds, written to results/kernel_compare.json. This install's step runs on its default back
-end (the compiled C when a compiler is there, see certiloop.studies.sbs.native); with
+medians and p99s, and the slowest call of all rounds, written to results/kernel_compare.json.
+This install's step runs on its default back end (the compiled C when a compiler is there, see
+certiloop.studies.sbs.native); with
 CERTILOOP_KERNEL=python in the environment it runs the numpy path, written to
 results/kernel_compare_numpy.json.
 """

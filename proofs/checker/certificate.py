@@ -41,7 +41,7 @@ WALL_NET_MS = 60_000
 # z3 does not always honour its own timeout either: the leaves are decided in a child process,
 # killed when a leaf takes this long (the net's own answer arrives first when z3 honours it)
 KILL_AFTER_S = 75
-ODE_METHODS = ("dI", "dbx", "barrier", "nonzero")
+ODE_METHODS = ("dI", "dbx", "barrier", "progress", "nonzero")
 TOP = {"format", "theorem", "rules", "tree", "leaves"}
 
 

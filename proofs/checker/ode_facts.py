@@ -133,6 +133,12 @@ def premise(atom: Node, ode: ODE, method: str, cofactor: Node | None) -> Node | 
         return None if sympy.cancel(rest) == 0 else cmp(weak, from_sympy(rest, table), 0)
     if method == "barrier" and op in (">", ">="):  # where p = 0, p increases (p' > 0)
         return Implies(cmp("==", p, 0), cmp(">", dp, 0))
+    if method == "progress" and op == ">=" and not divides(p) and not any(divides(f) for _, f in ode.eqs):
+        # leaving p >= 0 needs a last zero: a rest point (f = 0: a polynomial field stays there),
+        # or p' > 0, or p' = 0 with p'' > 0, each making p > 0 just after it
+        rest = And(*(cmp("==", f, 0) for _, f in ode.eqs))
+        ddp = lie_derivative(dp, ode)
+        return Implies(cmp("==", p, 0), Or(rest, cmp(">", dp, 0), And(cmp("==", dp, 0), cmp(">", ddp, 0))))
     if method == "nonzero" and not divides(p):  # p never 0 in the domain: p keeps its initial sign
         return cmp("!=", p, 0)
     raise NotCheckable(f"rule {method} for `{atom}` not checkable yet")

@@ -64,13 +64,27 @@ def test_a_differential_invariant_that_is_not_one_is_rejected():
 
 
 def test_a_rule_not_covered_yet_is_refused_never_accepted():
+    from certiloop.models.lang.terms import Real
+
+    w = Real("w")  # a witness (∃ around a loop): not a rule the checker follows yet
+    t = Theorem("tiny.witness", x >= 0, loop(assign(x, x + 1)), x >= 0, witnesses=((w, x),))
+    outcome = check(_doc(t))
+    assert outcome.status == "rejected" and outcome.exit_code == 1
+    assert "rule witness not checkable yet" in outcome.message
+
+
+def test_the_progress_rule_is_checked_by_its_own_premise():
+    """x' = x^2 keeps x >= 0 (at x = 0 the flow rests: f = 0), which the strict barrier cannot
+    show; -x^3 >= 0 under x' = 1 is false from x = 0 (p' = p'' = 0 there, f = 1): rejected."""
     from certiloop.proofs.core.odes import OdeStep
 
-    plant = ode({x: 1}, invariants=[x >= 0])
-    t = Theorem("tiny.progress", x >= 0, plant, x >= 0)
-    outcome = check(_doc(t, {plant.key: (OdeStep(x >= 0, "progress"),)}))
-    assert outcome.status == "rejected" and outcome.exit_code == 1
-    assert "rule 'progress' not checkable yet" in outcome.message
+    rests = ode({x: x * x}, invariants=[x >= 0])
+    kept = Theorem("tiny.progress", x >= 0, rests, x >= 0)
+    assert check(_doc(kept, {rests.key: (OdeStep(x >= 0, "progress"),)})).status == "accepted"
+    moves = ode({x: 1}, invariants=[-x * x * x >= 0])
+    false = Theorem("tiny.cubic", cmp("==", x, 0), moves, -x * x * x >= 0)
+    outcome = check(_doc(false, {moves.key: (OdeStep(-x * x * x >= 0, "progress"),)}))
+    assert outcome.status == "rejected" and "z3 says sat" in outcome.message
 
 
 def test_a_division_by_zero_is_a_failing_leaf():
