@@ -521,44 +521,27 @@ def dot(u: Iterable[Any], v: Iterable[Any]) -> Node:
 
 def free_vars(n: Node, bound: frozenset[str] = frozenset()) -> dict[str, Node]:
     """Free symbols of a term/formula (box/diamond included), by name, in the order they first
-    occur. A node's are computed from its children's and kept on it: the weakenings ask for
-    the atoms' and then the whole formula's, and a model's obligations share their hypotheses."""
+    occur. A node's are kept on it, and a walk takes those of any subterm asked before (the
+    weakenings ask for the atoms' and then the whole formula's; obligations share hypotheses)."""
     if bound:
         return _free_vars(n, bound)
-    return dict(_free_of(n))  # a copy: callers may add to it
-
-
-_NO_FREE: dict[str, Node] = {}
-
-
-def _free_of(n: Node) -> dict[str, Node]:
-    """free_vars(n), kept on the node (never handed out to be changed)."""
     cached = n.__dict__.get("_free")
-    if cached is not None:
-        return cached
-    op = n.op
-    if op == "var":
-        out = {n.payload: n}
-    elif not n.args and op not in MODALITIES:
-        return _NO_FREE
-    else:
-        out = {}
-        if op in MODALITIES:
-            out.update(n.payload.symbols())
-        for a in n.args:
-            for name, v in _free_of(a).items():
-                out.setdefault(name, v)
-        if op in QUANTIFIERS:
-            for v in n.payload:
-                out.pop(v.payload, None)
-    object.__setattr__(n, "_free", out)
-    return out
+    if cached is None:
+        cached = _free_vars(n, bound)
+        object.__setattr__(n, "_free", cached)
+    return dict(cached)  # a copy: callers may add to it
 
 
 def _free_vars(n: Node, bound: frozenset[str]) -> dict[str, Node]:
     out: dict[str, Node] = {}
 
     def walk(x: Node, b: frozenset[str]) -> None:
+        known = x.__dict__.get("_free")
+        if known is not None:
+            for name, v in known.items():
+                if name not in b:
+                    out.setdefault(name, v)
+            return
         if x.op == "var":
             if x.payload not in b:
                 out.setdefault(x.payload, x)

@@ -13,6 +13,7 @@ import hashlib
 import multiprocessing
 import re
 from dataclasses import dataclass
+from multiprocessing.connection import wait
 
 try:
     import z3
@@ -62,11 +63,7 @@ def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
     try:
         theorem, odes = _read(doc)
         derived = Derivation(theorem, odes).run()
-        texts = _compare(doc, derived)
-        failed = decide_all(texts, rlimit)
-        if failed is not None:
-            leaf = derived[failed[0]]
-            raise Rejected(f"leaf {leaf.id} ({' / '.join(leaf.path)}): {failed[1]}")
+        texts = judge_all(doc, derived, rlimit)
     except Malformed as exc:
         return Outcome("malformed", f"malformed certificate: {exc}")
     except NotCheckable as exc:
@@ -89,34 +86,65 @@ def _texts(leaves: list[Leaf]) -> tuple[tuple[str, str], ...]:
     return tuple((leaf.id, script(leaf.formula)) for leaf in leaves)
 
 
-def decide_all(texts: list[str], rlimit: int) -> tuple[int, str] | None:
-    """(index, why) of the first leaf z3 does not decide unsat, else None; decided one after
-    the other in one forked child, so a z3 that ignores its limits is stopped."""
-    context = multiprocessing.get_context("fork")
-    mine, theirs = context.Pipe(duplex=False)
-    child = context.Process(target=_decide_each, args=(texts, rlimit, theirs), daemon=True)
-    child.start()
-    theirs.close()
+WORKERS = 2  # forked children comparing and deciding the leaves, each every WORKERS-th one
+FAILURES = {"Rejected": Rejected, "NotCheckable": NotCheckable, "Malformed": Malformed}
+
+
+def judge_all(doc: dict, derived: list[Leaf], rlimit: int) -> list[str]:
+    """The text decided for each leaf (_leaf_text), each decided unsat by z3 in forked children
+    (a z3 that ignores its limits is killed); the first failing leaf's failure is raised here."""
+    _tree(doc, derived)
+    context, pipes, children = multiprocessing.get_context("fork"), [], []
+    for k in range(WORKERS):
+        mine, theirs = context.Pipe(duplex=False)
+        share = range(k, len(derived), WORKERS)
+        children.append(context.Process(target=_judge_each, args=(doc, derived, share, rlimit, theirs),
+                                        daemon=True))
+        children[-1].start()
+        theirs.close()
+        pipes.append(mine)
+    texts: dict[int, str] = {}
+    failures: list[tuple[int, str, str]] = []
     try:
-        for i in range(len(texts)):
-            if not mine.poll(KILL_AFTER_S):
-                return i, f"z3 did not answer within {KILL_AFTER_S} s (stopped)"
-            why = mine.recv()
-            if why is not None:
-                return i, why
-        return None
-    except EOFError:
-        return i, "the process deciding it ended without an answer"
+        while pipes:
+            ready = wait(pipes, KILL_AFTER_S)
+            if not ready:  # the next leaf of each child still deciding
+                i = min(set(range(len(derived))) - set(texts) - {f[0] for f in failures}, default=0)
+                failures.append((i, "Rejected", f"{_where(derived[i])}: no answer in {KILL_AFTER_S} s"))
+                break
+            for pipe in ready:
+                try:
+                    i, kind, value = pipe.recv()
+                except EOFError:  # its share is done, or it died (a missing leaf is caught below)
+                    pipes.remove(pipe)
+                    continue
+                if kind == "ok":
+                    texts[i] = value
+                else:
+                    failures.append((i, kind, value))
+                    pipes.remove(pipe)
     finally:
-        child.kill()
-        child.join()
+        for child in children:
+            child.kill()
+            child.join()
+    failed = {f[0]: f for f in failures}
+    for i in range(len(derived)):  # in leaf order: the first leaf not decided unsat
+        if i in failed:
+            raise FAILURES.get(failed[i][1], ValueError)(failed[i][2])
+        if i not in texts:
+            raise Rejected(f"{_where(derived[i])}: the process deciding it ended without an answer")
+    return [texts[i] for i in range(len(derived))]
 
 
-def _decide_each(texts: list[str], rlimit: int, out) -> None:
-    for text in texts:
-        why = decide(text, rlimit)
-        out.send(why)
-        if why is not None:
+def _judge_each(doc: dict, derived: list[Leaf], share: range, rlimit: int, out) -> None:
+    for i in share:
+        try:
+            text = _leaf_text(doc, derived[i], i)
+            if (why := decide(text, rlimit)) is not None:
+                raise Rejected(f"{_where(derived[i])}: {why}")
+            out.send((i, "ok", text))
+        except Exception as exc:  # noqa: BLE001 - sent as it is: the parent rejects, never accepts
+            out.send((i, type(exc).__name__, str(exc) if type(exc).__name__ in FAILURES else repr(exc)))
             return
 
 
@@ -279,30 +307,36 @@ def tree(paths: list[tuple[str, str]]) -> dict:
     return root
 
 
-def _compare(doc: dict, derived: list[Leaf]) -> list[str]:
-    """The SMT-LIB text to decide for each leaf: the leaf's own, or its checked weakening's (v2)."""
-    leaves, v2, out = doc["leaves"], doc["format"] == FORMAT_V2, []
-    if not isinstance(leaves, list):
+def _where(leaf: Leaf) -> str:
+    return f"leaf {leaf.id} ({' / '.join(leaf.path)})"
+
+
+def _tree(doc: dict, derived: list[Leaf]) -> None:
+    """The recorded tree and leaf count are those of the derived proof."""
+    if not isinstance(doc["leaves"], list):
         raise Malformed("leaves must be a list")
     mine = [(leaf.id, " / ".join(leaf.path)) for leaf in derived]
     if doc["tree"] != tree(mine):
         raise Rejected(f"tree: not the proof tree of the theorem with these rules ({len(mine)} leaves)")
-    if len(leaves) != len(derived):
-        raise Rejected(f"leaves: {len(leaves)} recorded, the proof has {len(derived)}")
-    for got, leaf in zip(leaves, derived):
-        got = _fields(got, {"id", "path", "smtlib", "decided", *["weakening"] * v2}, "a leaf")
-        where = f"leaf {leaf.id} ({' / '.join(leaf.path)})"
-        if got["id"] != leaf.id or got["path"] != " / ".join(leaf.path):
-            raise Rejected(f"{where}: recorded as {got['id']!r} at {got['path']!r}")
-        if got["smtlib"] != script(leaf.formula):
-            raise Rejected(f"{where}: the recorded formula is not the one this step produces")
-        weak = got.get("weakening")
-        if got["decided"] != (DECIDED if weak is None else WEAKENED):
-            raise NotCheckable(f"decision {got['decided']!r} not checkable yet")
-        if weak is not None:
-            weakened(leaf.formula, weak, where)  # checked to imply the leaf, its text compared
-        out.append(got["smtlib"] if weak is None else weak["smtlib"])
-    return out
+    if len(doc["leaves"]) != len(derived):
+        raise Rejected(f"leaves: {len(doc['leaves'])} recorded, the proof has {len(derived)}")
+
+
+def _leaf_text(doc: dict, leaf: Leaf, i: int) -> str:
+    """The SMT-LIB text to decide for the i-th leaf: its own, or its checked weakening's (v2)."""
+    v2 = doc["format"] == FORMAT_V2
+    got = _fields(doc["leaves"][i], {"id", "path", "smtlib", "decided", *["weakening"] * v2}, "a leaf")
+    where = _where(leaf)
+    if got["id"] != leaf.id or got["path"] != " / ".join(leaf.path):
+        raise Rejected(f"{where}: recorded as {got['id']!r} at {got['path']!r}")
+    if got["smtlib"] != script(leaf.formula):
+        raise Rejected(f"{where}: the recorded formula is not the one this step produces")
+    weak = got.get("weakening")
+    if got["decided"] != (DECIDED if weak is None else WEAKENED):
+        raise NotCheckable(f"decision {got['decided']!r} not checkable yet")
+    if weak is not None:
+        weakened(leaf.formula, weak, where)  # checked to imply the leaf, its text compared
+    return got["smtlib"] if weak is None else weak["smtlib"]
 
 
 __all__ = ["FLOW_TIME", "Outcome", "check", "decide", "tree"]

@@ -24,6 +24,7 @@ from certiloop.proofs.core.instantiate import instantiate
 from certiloop.proofs.core.lowering import lower
 from certiloop.proofs.core.odes import OdeStep, default_chain, polynomial_solution
 from certiloop.proofs.core.vcgen import Obligation, generate
+from certiloop.proofs.engine.forked import forked_map
 
 STEPS = ("instantiated", "instantiated more", "lowered", "abstracted")
 
@@ -34,9 +35,13 @@ def certificate(theorem: Theorem, plan: dict[tuple, tuple[OdeStep, ...]], result
     without them every leaf is recorded as decided as stated."""
     obligations = generate(theorem, plan)
     backends = {r.id: r.backend for r in results if r.verdict == "proved"}
-    weakened = [_weakening(ob, backends.get(ob.id, "z3")) for ob in obligations]
-    leaves = [{"id": ob.id, "path": ob.path, "smtlib": script(ob.formula), "decided": DECIDED}
-              for ob in obligations]
+
+    def leaf(i: int) -> tuple[dict, dict | None]:  # each leaf alone: spread over forked children
+        ob = obligations[i]
+        return ({"id": ob.id, "path": ob.path, "smtlib": script(ob.formula), "decided": DECIDED},
+                _weakening(ob, backends.get(ob.id, "z3")))
+
+    leaves, weakened = map(list, zip(*forked_map(leaf, len(obligations)))) if obligations else ([], [])
     if any(w is not None for w in weakened):
         for leaf, w in zip(leaves, weakened):
             leaf.update(decided=DECIDED if w is None else WEAKENED, weakening=w)
