@@ -60,6 +60,15 @@ def _kyx_spec(spec: str) -> tuple[str, str | None] | None:
     return None
 
 
+_HINT_NOTES: dict[str, tuple[str, ...]] = {}  # a read .kyx entry's canonical text -> its notes
+
+
+def hint_notes(theorem) -> tuple[str, ...]:
+    """For a theorem read from a .kyx entry: which invariants its Tactic names were used as
+    hints, and why the others were not (empty for any other theorem)."""
+    return _HINT_NOTES.get(getattr(theorem, "canonical", ""), ())
+
+
 def load_kyx(path_text: str, entry: str | None = None, keep_unsupported: bool = False) -> list:
     """Every entry of a KeYmaera X archive, or the one named; an entry certiloop cannot read
     is bad input, named with its line and column (with `keep_unsupported` and no entry
@@ -74,6 +83,7 @@ def load_kyx(path_text: str, entry: str | None = None, keep_unsupported: bool = 
     except (OSError, UnicodeDecodeError) as exc:
         raise ModelError(f"{path_text}: cannot be read: {exc}") from None
     entries = read_entries(text, path_text, only=entry)
+    _HINT_NOTES.update({e.theorem.canonical: e.notes for e in entries if e.theorem is not None and e.notes})
     if entry is not None:
         chosen = [e for e in entries if e.name == entry]
         if not chosen:

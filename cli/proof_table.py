@@ -92,6 +92,10 @@ def show_result(console: Console, result: TheoremResult, level: int = ui.NORMAL)
         show_cross_check(console, result.extra["cross_check"])
     if result.reason:
         ui.say(console, f"  {result.reason}")
+    if result.extra.get("tactic_hints") and (level == ui.VERBOSE or not fine):
+        ui.say(console, "  the entry's Tactic (its invariants read as hints):")
+        for note in result.extra["tactic_hints"]:
+            ui.say(console, f"    {note}", indent="      ")
     if result.refutation is not None:
         show_refutation(console, result)
 

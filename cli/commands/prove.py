@@ -43,7 +43,7 @@ def run(args: argparse.Namespace) -> int:
     options.check_outputs(("--json", args.json, "file or -"), ("--smtlib", args.smtlib, "folder"),
                           ("--certificate", args.certificate, "folder"))
     from certiloop import api
-    from certiloop.api.loading import Unsupported, load_all
+    from certiloop.api.loading import Unsupported, hint_notes, load_all
 
     theorems = load_all(args.models, keep_unsupported=True)  # all bad names fail before any work
 
@@ -73,6 +73,8 @@ def run(args: argparse.Namespace) -> int:
                     show_unsupported(out, theorem.name, unsupported[-1].reason)
                     docs.append(unsupported[-1].to_json())
                     continue
+                if notes := hint_notes(theorem):
+                    result.extra["tactic_hints"] = list(notes)
                 if args.cross_check:
                     cross_check(result)
                 if args.check:

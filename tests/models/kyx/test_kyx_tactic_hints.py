@@ -229,3 +229,20 @@ def test_a_cut_goes_to_the_ode_its_position_names():
     (e,) = read_entries(text)
     odes = [p for p in _flatten(e.theorem.program) if type(p).__name__ == "ODE"]
     assert [[str(i) for i in o.invariants] for o in odes] == [["x >= 0"], ["y >= 0"]]
+
+
+def test_prove_shows_what_became_of_the_tactics_hints(tmp_path, capsys):
+    """An entry not proved says which of its Tactic's invariants were used and which not
+    (here the loop has its own annotation, so the tactic's is not used)."""
+    import json
+
+    from certiloop.cli.main import main
+
+    path = tmp_path / "e.kyx"
+    path.write_text(ENTRY.format(name="own", invariant='"x>=0 & y>=0"', low="0",
+                                 annotation="@invariant(x >= 0)"))
+    assert main(["prove", str(path), "--jobs", "1", "--json", str(tmp_path / "out.json")]) == 1
+    out = capsys.readouterr().out
+    assert "the entry's Tactic (its invariants read as hints):" in out and "has its own @invariant" in out
+    row = json.loads((tmp_path / "out.json").read_text())  # one model: its object
+    assert any("has its own @invariant" in n for n in row["tactic_hints"])
