@@ -108,6 +108,22 @@ def _witness_task(theorem: Theorem, budget: Budget):
     return find_witness(theorem, budget)
 
 
+def _nonblocking_task(theorem: Theorem, budget: Budget) -> tuple[list[ObligationResult], str | None, bool]:
+    """The vacuity check (Prover._vacuity) whole, on a worker beside the proof of a claim
+    expected to hold: its obligations' results, then the witness's message and whether its run
+    replayed (None, False when an obligation is not proved: nothing more was tried)."""
+    results = [_no_refutation(discharge_one(ob, budget)) for ob in nonblocking_obligations(theorem)]
+    if not all(r.verdict == "proved" for r in results):
+        return results, None, False
+    witness, why = _witness_task(theorem, budget)
+    if witness is None:
+        return results, why, False
+    from certiloop.falsify.replay import replay_witness
+
+    outcome = replay_witness(theorem, witness)
+    return results, outcome.message, outcome.violated
+
+
 def confirm_run(theorem: Theorem, refutation) -> RunEvidence:
     """The independent checks of a violating run the refuter found (and re-checked exactly
     on the unrolled claim): the interpreter replays it from the same start — other code:
@@ -175,8 +191,10 @@ class Prover:
         start = time.perf_counter()
         self._memo = {}
         # whether a proof would be vacuous, on a worker beside the proof of a claim expected to hold
-        vacuous = self._submit(vacuity, theorem, self.budget) if theorem.expected == "proved" and \
-            self._executor() is not None else None
+        beside = theorem.expected == "proved" and self._executor() is not None
+        vacuous = self._submit(vacuity, theorem, self.budget) if beside else None
+        nonblocking = self._submit(_nonblocking_task, theorem, self.budget) \
+            if beside and theorem.check_nonblocking else None
         source = (theorem, {})
         too_many: TooManyObligations | None = None
         try:
@@ -245,7 +263,7 @@ class Prover:
         if decision.verdict == "proved" and too_many is None:
             result.proof = source
         if theorem.check_nonblocking and decision.verdict == "proved":
-            self._vacuity(theorem, result)
+            self._vacuity(theorem, result, nonblocking)
         if decision.verdict == "proved":
             result.vacuous = (vacuous or self._submit(vacuity, theorem, self.budget)).result()
         result.seconds = time.perf_counter() - start
@@ -338,9 +356,15 @@ class Prover:
                 break
         return results
 
-    def _vacuity(self, theorem: Theorem, result: TheoremResult) -> None:
+    def _vacuity(self, theorem: Theorem, result: TheoremResult, beside: Future | None = None) -> None:
         """The step has a run from every state it can start in (obligations), and here is
-        one (a witness the interpreter replays)."""
+        one (a witness the interpreter replays). beside: the same, already submitted to a
+        worker (_nonblocking_task) while the proof ran."""
+        if beside is not None:
+            result.nonblocking, witness, replayed = beside.result()
+            if witness is not None:
+                result.witness, result.witness_replayed = witness, replayed
+            return
         result.nonblocking = [_no_refutation(r) for r in
                               self._discharge(nonblocking_obligations(theorem), None, self.budget)]
         if not all(r.verdict == "proved" for r in result.nonblocking):
