@@ -80,6 +80,8 @@ class GateEntry:
         elif self.expected == "refuted" and self.falsify and not self.falsify.get("skipped") \
                 and self.falsify.get("verdict") not in ("refuted", UNCONFIRMED):
             out.append(f"the falsifier found no violating run in {self.falsify.get('examples')} examples")
+        if self.verdict == "proved" and not (self.checked or "").startswith("accepted"):
+            out.append("proved, but the proof checker's acceptance of its certificate is not recorded")
         if self.vacuous:
             out.append(f"vacuous: {self.vacuous}")
         if self.nonblocking is not None and self.nonblocking["verdict"] != "proved":

@@ -75,8 +75,9 @@ def _entry(name, expected, verdict, passed=True, **extra):
                     "seconds": 0.1}]
     falsify = {"verdict": "refuted" if expected == "refuted" else "no counterexample", "examples": 300}
     replay = {"violated": True, "message": ""} if verdict == "refuted" else None
+    checked = f"accepted: {name}" if verdict == "proved" else None
     return gate_module.GateEntry(name, expected, verdict, 1.5, obligations, falsify=falsify, replay=replay,
-                                 nonblocking={"verdict": "proved"}, **extra)
+                                 nonblocking={"verdict": "proved"}, checked=checked, **extra)
 
 
 def render_gate(entries, width, level=ui.NORMAL):

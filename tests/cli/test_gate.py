@@ -106,6 +106,7 @@ def _no_falsifier(theorem, opts):
 
 def _stub_passing(theorem, prover, opts, falsifier=None):
     return gate_module.GateEntry(theorem.name, "proved", "proved", 0.0, [],
+                                 checked=f"accepted: {theorem.name}",
                                  falsify={"verdict": "no counterexample"},
                                  kernel=gate_module._kernel_check(theorem))
 

@@ -72,3 +72,14 @@ def test_a_proof_the_checker_rejects_fails_the_gate_and_is_not_cached(tmp_path, 
     monkeypatch.setattr(gate_module, "check_model", lambda *a: seen.append(a[0].name) or real_check(*a))
     assert gate(tmp_path) == 0  # nothing of the rejected proof was kept: proved and checked afresh
     assert seen == [MODEL] and entry(tmp_path)["checked"].startswith("accepted")
+
+
+def test_an_entry_says_proved_only_with_the_checkers_acceptance_recorded():
+    def entry(checked):
+        return gate_module.GateEntry("m", "proved", "proved", 0.1, [], checked=checked,
+                                     falsify={"verdict": "no counterexample"})
+
+    assert entry("accepted: m (0123): assumptions -> [program] guarantee, 3 leaves").passed
+    for missing in (None, "", "rejected: leaf o1 (postcondition): z3 says sat, not unsat"):
+        assert not entry(missing).passed
+        assert "acceptance of its certificate is not recorded" in entry(missing).message

@@ -19,7 +19,8 @@ def entry(model, expected, verdict, obligations, **more):
     data = {"model": model, "expected": expected, "verdict": verdict, "seconds": 0.5,
             "obligations": obligations, "reason": "", "counterexample": None, "replay": None,
             "falsify": {"verdict": "no counterexample", "examples": 300}, "kernel": None,
-            "nonblocking": None, "cross_check": None, "inconsistent": False}
+            "nonblocking": None, "cross_check": None, "inconsistent": False,
+            "checked": f"accepted: {model}" if verdict == "proved" else None}
     data.update(more)
     return GateEntry.from_json(data)
 

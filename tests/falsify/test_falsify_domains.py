@@ -230,7 +230,8 @@ def test_the_gate_counts_only_confirmed_runs_against_a_proof():
 
     def entry_with(expected, verdict, check):
         return GateEntry("m", expected, expected, 0.1, [], falsify={"verdict": verdict, "check": check,
-                                                                   "violated": "x < 1"})
+                                                                   "violated": "x < 1"},
+                         checked="accepted: m" if expected == "proved" else None)
     candidate = "floating point only: violated by 9 (not validated: why)"
     assert not entry_with("proved", "unconfirmed candidate", candidate).problems
     assert entry_with("proved", "refuted", "replayed in exact rational arithmetic").problems

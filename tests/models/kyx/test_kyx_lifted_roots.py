@@ -213,8 +213,8 @@ def test_a_float_only_run_does_not_fail_the_gate_of_a_proved_model():
     from certiloop.falsify.depth import FLOAT_ONLY
 
     def entry_with(check):
-        return GateEntry("m", "proved", "proved", 0.1, [], falsify={"verdict": "refuted", "check": check,
-                                                                  "violated": "p <= 0"})
+        return GateEntry("m", "proved", "proved", 0.1, [], checked="accepted: m",
+                         falsify={"verdict": "refuted", "check": check, "violated": "p <= 0"})
     assert not entry_with(f"{FLOAT_ONLY}: violated by 0.0142 (not validated)").problems
     assert entry_with("replayed in exact rational arithmetic").problems
 
