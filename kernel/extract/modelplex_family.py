@@ -26,10 +26,10 @@ from certiloop.kernel.extract.monitor_terms import (
     term,
     theorem_symbols,
 )
-from certiloop.kernel.extract.scalar import Python
+from certiloop.kernel.extract.scalar import KIT, Python
 from certiloop.kernel.extract.vectorised import min_update
 from certiloop.models.lang.programs import Assign, Choice, Havoc, Loop, Program, Seq, Test
-from certiloop.models.lang.terms import BOOL, REAL, And, Node, Var
+from certiloop.models.lang.terms import BOOL, REAL, Node, Var
 from certiloop.models.lang.theorem import Theorem
 
 
@@ -90,7 +90,7 @@ def family_controller_monitor(theorem: Theorem, step: Step, controller_src: str)
             for atom in conjuncts(q.cond):
                 bound = _bound(atom)
                 if bound is None:
-                    pre.append(f"    if not {term(atom, 'b')}:")
+                    pre.append(f"    if not {term(atom, 'b', KIT)}:")
                     pre.append("        return False")
                     continue
                 j, body = bound
@@ -98,16 +98,17 @@ def family_controller_monitor(theorem: Theorem, step: Step, controller_src: str)
                 if pinned and body.args[0].args[0].payload in pending:
                     fam = body.args[0].args[0].payload
                     value = _scalarise(body.args[1], j)
-                    pre.append(f"    b[{fam!r}] = np.array([bool({term(value, 'c')}) for c in _cells(b, m)])"
+                    pre.append(f"    b[{fam!r}] = np.array([bool({term(value, 'c', KIT)})"
+                               " for c in _cells(b, m)], dtype=bool)"
                                f"  # from {brief(atom, 60)}")
                     pending.discard(fam)
                     pins[fam] = None
                     continue
-                pre.append(f"    if not all({term(_scalarise(body, j), 'c')} for c in _cells(b, m)):")
+                pre.append(f"    if not all({term(_scalarise(body, j), 'c', KIT)} for c in _cells(b, m)):")
                 pre.append("        return False")
             continue
         if isinstance(q, Assign) and q.target.op == "var":
-            pre.append(f"    b[{q.target.payload!r}] = {term(q.value, 'b')}")
+            pre.append(f"    b[{q.target.payload!r}] = {term(q.value, 'b', KIT)}")
             scalars_assigned[q.target.payload] = None
             continue
         raise MonitorError(f"cannot monitor `{brief(q)}` before the boundary loop")
@@ -130,13 +131,16 @@ def family_controller_monitor(theorem: Theorem, step: Step, controller_src: str)
     for o in outputs:
         if o != k and o not in pins:
             raise MonitorError(f"the output `{o}` is neither the folded minimum nor a pinned family")
-    taken = set(symbols) | {"b", "c", "m", "np", "math", "tol", "state", "command"}
+    taken = set(symbols) | {"b", "c", "m", "np", "math", "tol", "state", "command", KIT, "_decide",
+                            "_controller_monitor", "_exact"}
     tol, cmd = fresh(taken, "tol"), fresh(taken, f"cmd_{k}")
     kt = _scalarise(value, index)
     real = lambda name: Var(name, REAL)  # noqa: E731
     ge = _boundary_fn("_boundary_ge", body, kt >= real(cmd) - real(tol), symbols, index, cmd, tol)
-    eq = _boundary_fn("_boundary_eq", body, And(kt - real(cmd) <= real(tol), real(cmd) - kt <= real(tol)),
-                      symbols, index, cmd, tol)
+    # |kt - cmd| <= tol in the reals, or cmd the float the controller returns for kt (kit.close)
+    close = kt - real(cmd) <= real(tol)
+    eq = _boundary_fn("_boundary_eq", body, close, symbols, index, cmd, tol,
+                      {close.key: (kt, real(cmd), real(tol))})
     ge_src, ge_params = ge
     eq_src, eq_params = eq
     member = _scalarise(loop.each.member, loop.each.index.payload) if loop.each.member.op != "true" else None
@@ -150,19 +154,32 @@ def family_controller_monitor(theorem: Theorem, step: Step, controller_src: str)
     lines = [ge_src, eq_src,
              "def controller_monitor(state, command, tol=0.0):",
              f'    """True iff some run of the control step from `state` ends with `command` ({k} within',
-             '    tol, pinned families cell by cell). Families are 1-D arrays over the boundaries."""',
-             "    tol = float(tol)",
-             "    if not (tol >= 0.0):",
+             "    tol in the reals, or the float the extracted controller returns; pinned families cell by",
+             "    cell). Families are 1-D arrays over the boundaries. Every decision is the real model's on",
+             "    these float values (exact rationals): floats with a rigorous error bound, exact rationals",
+             '    where the bound cannot decide; undecidable there, or a non-finite value: False."""',
+             "    return _decide.run(_controller_monitor, False, state, command, tol)",
+             "",
+             "",
+             f"def _controller_monitor({KIT}, state, command, tol):",
+             f"    tol = {KIT}.real(tol)",
+             f"    if not (tol >= {KIT}.c(0)):",
              "        return False",
              "    b = {}"]
     for v in scalars:
-        lines.append(f"    b[{v!r}] = {numpy_conversion(symbols[v].sort)}(state[{v!r}])")
+        sort = symbols[v].sort
+        if sort == REAL:
+            lines.append(f"    b[{v!r}] = {KIT}.real(state[{v!r}])")
+            continue
+        lines.append(f"    b[{v!r}] = _exact(state[{v!r}], {'bool' if sort == BOOL else 'int'})")
+        lines.append(f"    if b[{v!r}] is None:")
+        lines.append("        return False")
     for f in fams:
-        lines.append(f"    b[{f!r}] = np.asarray(state[{f!r}])")
+        real_cells = symbols[f].sort.range == REAL
+        lines.append(f"    b[{f!r}] = {KIT}.array(state[{f!r}])" if real_cells else
+                     f"    b[{f!r}] = np.asarray(state[{f!r}])")
     lines.append(f"    m = len(b[{fams[0]!r}])" if fams else "    m = 0")
-    lines.append(f"    {cmd} = float(command[{k!r}])")
-    lines.append(f"    if not math.isfinite({cmd}):")
-    lines.append("        return False")
+    lines.append(f"    {cmd} = {KIT}.real(command[{k!r}])")
     lines.append("    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):")
     lines += ["    " + x for x in pre]
     for f in pins:
@@ -172,14 +189,14 @@ def family_controller_monitor(theorem: Theorem, step: Step, controller_src: str)
     lines.append(f"        k0 = b[{k!r}]")
     lines.append(f"        if not (k0 >= {cmd} - tol):")
     lines.append("            return False")
-    lines.append(f"        hit = bool(k0 <= {cmd} + tol)")
+    lines.append(f"        hit = {KIT}.close(k0, {cmd}, tol)")
     lines.append("        for c in _cells(b, m):")
     if member is not None:
-        lines.append(f"            if not {term(member, 'c')}:")
+        lines.append(f"            if not {term(member, 'c', KIT)}:")
         lines.append("                continue  # the loop does not visit this boundary")
-    lines.append(f"            if not _boundary_ge(c, {cmd}, tol):")
+    lines.append(f"            if not _boundary_ge({KIT}, c, {cmd}, tol):")
     lines.append("                return False  # every value this boundary allows is below the command")
-    lines.append(f"            hit = hit or _boundary_eq(c, {cmd}, tol)")
+    lines.append(f"            hit = hit or _boundary_eq({KIT}, c, {cmd}, tol)")
     lines.append("        return hit")
     lines.append("")
     lines.append("")
@@ -223,22 +240,26 @@ def _pre_reads(step: Step, loop: Loop, symbols, done: str, pins, assigned) -> se
 
 
 def _boundary_fn(name: str, body: list[Program], goal: Node, symbols, index: str, cmd: str,
-                 tol: str) -> tuple[str, list[str]]:
-    """def name(c, cmd, tol): some path through one boundary's body ends where goal holds."""
+                 tol: str, closes: dict | None = None) -> tuple[str, list[str]]:
+    """def name(kit, c, cmd, tol): some path through one boundary's body ends where goal holds,
+    decided over the number kit (the cells of `c` are the kit's values already); `closes`: the
+    comparisons written as kit.close (modelplex.py)."""
     local = {n: (Var(n, s.sort.range) if s.sort.is_array else s) for n, s in symbols.items()}
     local[cmd] = Var(cmd, REAL)
     local[tol] = Var(tol, REAL)
     program = [Choice((Seq((*body, Test(goal))),), ("boundary",))]
     py = Python(local, {"__none"}, Seq(tuple(program)))
+    py.kit, py.closes = KIT, closes or {}
     try:
         py.block(program)
     except ExtractError as exc:
         raise MonitorError(f"no controller monitor for one boundary: {exc}") from None
     params = [p for p in py.params if p not in (cmd, tol)]
-    lines = [f"def {name}(c, {cmd}, {tol}):"]
+    lines = [f"def {name}({KIT}, c, {cmd}, {tol}):"]
     for p in params:
         sort = local[p].sort
-        lines.append(f"    {p} = {numpy_conversion(sort) if sort != BOOL else 'bool'}(c[{p!r}])")
+        lines.append(f"    {p} = c[{p!r}]" if sort == REAL else
+                     f"    {p} = {numpy_conversion(sort) if sort != BOOL else 'bool'}(c[{p!r}])")
     lines.append("    with np.errstate(divide='ignore', invalid='ignore', over='ignore'):")
     lines += [text.replace("return __BLOCKED__", "return False") for text in py.lines]
     lines.append("    return True")
