@@ -278,3 +278,29 @@ def test_a_gain_a_hair_below_one_rejects_one():
     assert r < 1 and floor(r) == math.nextafter(1.0, 0.0)
     assert monitor("sbs.ctrl2")(values, {"k": 1.0}) is False
     assert monitor("sbs.ctrl2")(values, {"k": floor(r)}) is True
+
+
+@settings(max_examples=300, suppress_health_check=list(HealthCheck))
+@given(num=st.integers(-2 ** 80, 2 ** 80), den=st.integers(1, 2 ** 70), slack=st.integers(0, 3),
+       ulps=st.sampled_from([0, 1, 2, 3, 256]), sign=st.sampled_from([-1, 1]),
+       tol_at=st.sampled_from(range(5)))
+def test_the_filter_decides_a_command_within_tol_as_the_exact_pass(num, den, slack, ulps, sign, tol_at):
+    """kit.close (the monitors' `|value - command| <= tol`, or command the float the controller
+    returns for value) on a value known to the filter only within an error bound: where the
+    filter answers, the exact pass gives the same answer on the real value."""
+    from certiloop.kernel import decide
+
+    x = Fraction(num, den)
+    v = float(x)
+    err = abs(Fraction(v) - x)
+    e = float(err) * (1 + slack) or (0.0 if err == 0 else 5e-324)
+    while Fraction(e) < err:
+        e = math.nextafter(e, math.inf)
+    k = nudge(floor(x), sign * ulps)
+    gap = floor(abs(x - Fraction(k))) or 0.0
+    tol = [0.0, gap, math.nextafter(gap, math.inf), math.nextafter(gap, 0.0), 1e-3][tol_at]
+    try:
+        got = decide.FLOAT.close(decide.Bounded(v, e), decide.Bounded(k), decide.Bounded(tol))
+    except decide.Undecided:
+        return
+    assert got is decide.EXACT.close(x, Fraction(k), Fraction(tol)), (x, v, e, k, tol)
