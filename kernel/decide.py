@@ -518,3 +518,27 @@ def run(step, blocked, *args):
         return step(EXACT, *args)
     except NoRun:
         return blocked
+
+
+def redo_exactly(part, kit, *args):
+    """`part(kit, *args)`, one part of a step (a boundary of a family monitor); where the filter
+    cannot decide it, that part alone again on exact rationals of the same arguments (floats,
+    dicts of them), instead of the whole step. An argument the filter holds only within an
+    error bound cannot be made exact here: Undecided, the whole step's exact pass."""
+    try:
+        return part(kit, *args)
+    except Undecided:
+        if kit is not FLOAT:
+            raise
+    return part(EXACT, *(_exactly(a) for a in args))
+
+
+def _exactly(x):
+    if isinstance(x, dict):
+        return {k: _exactly(v) for k, v in x.items()}
+    if isinstance(x, Bounded):
+        if x.e:
+            raise Undecided
+        return Fraction(x.v)
+    return x
+

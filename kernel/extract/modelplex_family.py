@@ -18,7 +18,8 @@ before the loop must hold for every boundary.
 largest float at most v; the set of such v is an interval starting at k − tol, so the
 decomposition above holds for it. Every comparison is decided as in the scalar monitor
 (certiloop.kernel.decide): the whole monitor is one function over the number kit, run with the
-float filter and, where a bound cannot decide, again with exact rationals of the float inputs.
+float filter and, where a bound cannot decide, again with exact rationals of the float inputs;
+a boundary the filter cannot decide is redone exactly on its own first (decide.redo_exactly).
 """
 
 from __future__ import annotations
@@ -200,9 +201,10 @@ def family_controller_monitor(theorem: Theorem, step: Step, controller_src: str)
     if member is not None:
         lines.append(f"            if not {term(member, 'c', KIT)}:")
         lines.append("                continue  # the loop does not visit this boundary")
-    lines.append(f"            if not _boundary_ge({KIT}, c, {cmd}, tol):")
+    # a boundary the filter cannot decide is redone exactly alone (not every boundary)
+    lines.append(f"            if not _decide.redo_exactly(_boundary_ge, {KIT}, c, {cmd}, tol):")
     lines.append("                return False  # every value this boundary allows is below the command")
-    lines.append(f"            hit = hit or _boundary_eq({KIT}, c, {cmd}, tol)")
+    lines.append(f"            hit = hit or _decide.redo_exactly(_boundary_eq, {KIT}, c, {cmd}, tol)")
     lines.append("        return hit")
     lines.append("")
     lines.append("")
