@@ -14,9 +14,12 @@ irrational roots, so the exact pass always decides).
 Tie states are found on the exact model alone (as in tests/kernel/test_extract_ties.py): along
 one input, two values where its first-enabled run takes other alternatives (or blocks elsewhere)
 are bisected over the floats down to adjacent floats (a boundary of some guard), then nudged 0 to
-2^16 ulps. The
-commands sit on the ties of the monitor's own comparisons: each run's k rounded down, moved by
-0 to 2^16 ulps, with tol 0 and tol within an ulp of the distance to k.
+2^16 ulps. The commands sit on the ties of the monitor's own comparisons: each run's k rounded
+down, moved by 0 to 2^16 ulps, with tol 0 and tol within an ulp of the distance to k.
+
+States near 1e301 where the plain-float64 monitor accepted k = 1 against a model that allows
+only k = 0 (or a k a hair below 1) are kept as regressions; the filter's own `close` decision on
+an inexact value is checked against the exact pass.
 """
 
 import math
