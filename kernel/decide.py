@@ -294,12 +294,21 @@ class _Float(_Kit):
     @staticmethod
     def close(value, command, tol) -> bool:
         """|value - command| <= tol in the reals, or command is the float the controller
-        returns for value (its largest float <= value): decided in the filter only for an exact
-        value, else by the exact pass."""
+        returns for value (its largest float <= value): decided in the filter where every real
+        value within the bound gives the same answer, else by the exact pass."""
         v, c, t = _lift(value), _lift(command), _lift(tol)
-        if v.e or c.e or t.e:
+        if c.e or t.e or not (math.isfinite(v.v) and math.isfinite(v.e)):
             raise Undecided
-        return c.v == v.v or abs(Fraction(v.v) - Fraction(c.v)) <= Fraction(t.v)
+        if v.e == 0:
+            return c.v == v.v or abs(Fraction(v.v) - Fraction(c.v)) <= Fraction(t.v)
+        x, e, cmd = Fraction(v.v), Fraction(v.e) * Fraction(INFL), Fraction(c.v)
+        gap = abs(x - cmd)
+        if gap + e <= Fraction(t.v):
+            return True  # within tol wherever in [x - e, x + e] the real value lies
+        if gap - e > Fraction(t.v) and (x + e < cmd or c.v < sys.float_info.max
+                                        and x - e >= Fraction(math.nextafter(c.v, math.inf))):
+            return False  # beyond tol, and command is not its largest float below, anywhere there
+        raise Undecided
 
 
 _MAX = Fraction(sys.float_info.max)
@@ -509,3 +518,27 @@ def run(step, blocked, *args):
         return step(EXACT, *args)
     except NoRun:
         return blocked
+
+
+def redo_exactly(part, kit, *args):
+    """`part(kit, *args)`, one part of a step (a boundary of a family monitor); where the filter
+    cannot decide it, that part alone again on exact rationals of the same arguments (floats,
+    dicts of them), instead of the whole step. An argument the filter holds only within an
+    error bound cannot be made exact here: Undecided, the whole step's exact pass."""
+    try:
+        return part(kit, *args)
+    except Undecided:
+        if kit is not FLOAT:
+            raise
+    return part(EXACT, *(_exactly(a) for a in args))
+
+
+def _exactly(x):
+    if isinstance(x, dict):
+        return {k: _exactly(v) for k, v in x.items()}
+    if isinstance(x, Bounded):
+        if x.e:
+            raise Undecided
+        return Fraction(x.v)
+    return x
+

@@ -21,7 +21,8 @@ that runtime's source (it imports nothing of certiloop). An output the step pins
 equation is solved from it and matched with the command like any other output.
 A step over a family of boundaries (`foreach` with `k := min(k, kt)`) has its own monitor
 (modelplex_family.py): the boundaries' choices are independent, so k passes iff no boundary
-forces kt below k − tol and k0 or some boundary can give k within tol. A step that reads
+forces kt below k − tol and k0 or some boundary can give k within tol; its decisions are
+float-sound in the same way. A step that reads
 families only under `∀j` tests is scalar code with `np.all` over the arrays.
 A step whose choices are all if/else (deterministic) but that has `for` loops (an algorithm
 such as cfmpa.builtdr) has exactly one run: there the monitor runs the extracted controller

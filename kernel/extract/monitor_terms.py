@@ -35,10 +35,15 @@ def numpy_conversion(sort) -> str:
     return "np.asarray"
 
 
-def term(n: Node, env: str) -> str:
-    """A real term or a quantifier-free formula as Python over the dict `env`."""
+def term(n: Node, env: str, kit: str | None = None) -> str:
+    """A real term or a quantifier-free formula as Python over the dict `env`; with `kit` (the
+    number kit of certiloop.kernel.decide), constants are exact and divisions the kit's."""
     op = n.op
     if op == "const":
+        if kit is not None:
+            v = n.payload  # an exact rational, whatever float it is nearest to
+            return f"{kit}.c({v.numerator})" if v.denominator == 1 else \
+                f"{kit}.c({v.numerator}, {v.denominator})"
         return repr(float(n.payload))
     if op == "true":
         return "True"
@@ -46,7 +51,7 @@ def term(n: Node, env: str) -> str:
         return "False"
     if op == "var":
         return f"{env}[{n.payload!r}]"
-    a = [term(x, env) for x in n.args]
+    a = [term(x, env, kit) for x in n.args]
     if op == "+":
         return "(" + " + ".join(a) + ")"
     if op == "*":
@@ -54,7 +59,7 @@ def term(n: Node, env: str) -> str:
     if op == "neg":
         return f"(-{a[0]})"
     if op == "/":
-        return f"_div({a[0]}, {a[1]})"
+        return f"{kit}.div({a[0]}, {a[1]})" if kit is not None else f"_div({a[0]}, {a[1]})"
     if op == "^":
         return f"({a[0]} ** {n.payload})"
     if op == "cmp":
