@@ -60,8 +60,9 @@ def main() -> None:
     ap.add_argument("--new", default=shutil.which("certiloop") or "certiloop")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--only", nargs="*", help="run only commands starting with these words")
+    ap.add_argument("--gate", nargs="*", metavar="MODEL", help="gate these models (default: all both know)")
     args = ap.parse_args()
-    common = sorted(_models(args.old) & _models(args.new)) or None
+    common = args.gate or sorted(_models(args.old) & _models(args.new)) or None
     rows = []
     for command in COMMANDS:
         if args.only and command[0] not in args.only:
@@ -74,6 +75,7 @@ def main() -> None:
         o, n = statistics.median(old), statistics.median(new)
         name = " ".join(command) + (f" ({len(common)} models)" if command[0] == "gate" and common else "")
         rows.append({"model": name, "old_s": round(o, 2), "new_s": round(n, 2),
+                     "old_min_s": round(min(old), 2), "new_min_s": round(min(new), 2),
                      "speedup": round(o / n, 2), "runs": args.repeats})
     record("compare", rows)
 
