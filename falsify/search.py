@@ -49,7 +49,7 @@ from certiloop.falsify.flows import Inexact
 from certiloop.falsify.forked import Forked, can_fork
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
 from certiloop.falsify.sort_key_cache import cached_sort_keys
-from certiloop.models.lang.programs import Program, Test, children
+from certiloop.models.lang.programs import ODE, Program, Test, children
 from certiloop.models.lang.terms import MODALITIES, Node
 from certiloop.models.lang.theorem import Theorem
 
@@ -139,6 +139,10 @@ def _modal(f: Node) -> bool:
     return f.op in MODALITIES or any(_modal(a) for a in f.args)
 
 
+def _has_flow(p: Program) -> bool:
+    return isinstance(p, ODE) or any(_has_flow(q) for q in children(p))
+
+
 def _modal_tests(p: Program) -> bool:
     return _modal(p.cond) if isinstance(p, Test) else any(_modal_tests(q) for q in children(p))
 
@@ -185,6 +189,8 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
             if opts.jobs > 1 and can_fork() and batches(theorem, opts.max_steps):
                 examples = opts.max_examples if opts.after_batch_examples is None \
                     else min(opts.max_examples, opts.after_batch_examples)
+                if _has_flow(theorem.program):  # both processes follow flows, which import it
+                    import scipy.optimize  # noqa: F401  (0.5 s of CPU: once, before the fork)
                 beside = Forked(lambda: _search(theorem, opts, examples, recording=True))
             first = {} if opts.batch_first is None else {"first": opts.batch_first}
             outcome = batch_search(theorem, opts.batch_runs, opts.seed, opts.max_steps, opts.families,
