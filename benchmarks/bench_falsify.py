@@ -72,9 +72,8 @@ COMMAND = ["falsify", "sbs.ctrl2", "--max-examples", "300"]
 # run by either side's python: CPU seconds of imports, the batch phase and the hypothesis
 # search of `falsify sbs.ctrl2` (300 examples, one process; the module moved between versions)
 PHASES = """
-import json, pathlib, sys, tempfile, time
+import json, pathlib, sys, tempfile, threading, time
 t0 = time.process_time()
-from certiloop.proofs.engine.deepstack import call_with_deep_stack
 def main():
     try:
         import certiloop.falsify.batch.phase as phase
@@ -93,9 +92,21 @@ def main():
     r = search.falsify(library.get("sbs.ctrl2"), search.Options(max_examples=300, seed=0,
                        database=pathlib.Path(tempfile.mkdtemp())))
     rest = time.process_time() - t - spent["batch"]
+    import cProfile, pstats
+    profile = cProfile.Profile()
+    profile.runcall(search.falsify, library.get("sbs.ctrl2"), search.Options(max_examples=300, seed=0,
+                    database=pathlib.Path(tempfile.mkdtemp())))
+    stats = pstats.Stats(profile).stats
+    top = sorted(stats.items(), key=lambda kv: -kv[1][2])[:12]  # own time, under the profiler
     print(json.dumps({"imports_s": round(imported, 2), "batch_phase_s": round(spent["batch"], 2),
-                      "hypothesis_search_s": round(rest, 2), "verdict": r.verdict, "examples": r.examples}))
-call_with_deep_stack(main)
+                      "hypothesis_search_s": round(rest, 2), "verdict": r.verdict, "examples": r.examples,
+                      "top_own_time_profiled_s": [f"{'/'.join(f.split('/')[-2:])}:{fn} {v[2]:.2f}"
+                                                  for (f, _line, fn), v in top]}))
+sys.setrecursionlimit(100_000)
+threading.stack_size(1 << 28)  # as the command: deeply nested models on a large stack
+worker = threading.Thread(target=main)
+worker.start()
+worker.join()
 """
 
 

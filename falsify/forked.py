@@ -8,6 +8,7 @@ child is stopped unused when the batch phase finds a counterexample first.
 
 from __future__ import annotations
 
+import gc
 import multiprocessing
 import os
 import pickle
@@ -23,7 +24,11 @@ class Forked:
         ctx = multiprocessing.get_context("fork")
         self._receive, send = ctx.Pipe(duplex=False)
         self._process = ctx.Process(target=_serve, args=(fn, send))
-        self._process.start()
+        gc.freeze()  # the child's collections skip what it inherited: no copies of those pages
+        try:
+            self._process.start()
+        finally:
+            gc.unfreeze()
         send.close()
 
     def result(self) -> Any:
