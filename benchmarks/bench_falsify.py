@@ -110,13 +110,13 @@ worker.join()
 """
 
 
-def _cli_once(cli: str) -> tuple[float, float, dict]:
+def _cli_once(cli: str, extra: tuple[str, ...] = ()) -> tuple[float, float, dict]:
     """Wall and CPU seconds (forked children included) of the command in a fresh folder, and its
     JSON result without its seconds."""
     with tempfile.TemporaryDirectory() as folder:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
-        proc = subprocess.run([cli, *COMMAND, "--json", "out.json"], cwd=folder, capture_output=True,
+        proc = subprocess.run([cli, *COMMAND, *extra, "--json", "out.json"], cwd=folder, capture_output=True,
                               check=False)
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -128,14 +128,15 @@ def _cli_once(cli: str) -> tuple[float, float, dict]:
     return wall, cpu, result
 
 
-def versus(old: str, runs: int) -> dict:
+def versus(old: str, runs: int, jobs: int | None = None) -> dict:
     sides = {"old": old, "new": str(Path(sys.executable).with_name("certiloop"))}
     walls: dict[str, list[float]] = {k: [] for k in sides}
     cpus: dict[str, list[float]] = {k: [] for k in sides}
     results = {}
     for _ in range(runs):
         for side, cli in sides.items():
-            wall, cpu, results[side] = _cli_once(cli)
+            extra = ("--jobs", str(jobs)) if jobs and side == "new" else ()
+            wall, cpu, results[side] = _cli_once(cli, extra)
             walls[side].append(wall)
             cpus[side].append(cpu)
     if results["old"] != results["new"]:
@@ -143,8 +144,8 @@ def versus(old: str, runs: int) -> dict:
     phases = {side: json.loads(subprocess.run([str(Path(cli).with_name("python")), "-c", PHASES],
                                               capture_output=True, check=True, text=True).stdout)
               for side, cli in sides.items()}
-    row = {"model": "cli: falsify sbs.ctrl2 --max-examples 300",
-           "jobs": f"default ({min(2, os.cpu_count() or 1)}; the old one has no --jobs)",
+    row = {"model": f"cli: falsify sbs.ctrl2 --max-examples 300{f' (new: --jobs {jobs})' if jobs else ''}",
+           "jobs": f"{jobs or f'default ({min(2, os.cpu_count() or 1)})'}; the old one has no --jobs",
            "result": f"{results['new']['verdict']} in {results['new']['examples']} examples (both)"}
     for side in sides:
         row[f"{side}_wall"] = {k: round(v, 2) for k, v in summary(walls[side]).items()}
@@ -160,13 +161,14 @@ def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--old", help="another checkout's certiloop console script: time the command beside it")
     ap.add_argument("--runs", type=int, default=5, help="runs of each side with --old (default 5)")
+    ap.add_argument("--jobs", type=int, help="with --old: the new side's --jobs (default: its default)")
     ap.add_argument("--seeds", type=int, default=20)
     ap.add_argument("--max-examples", type=int, default=2000)
     ap.add_argument("--only", default="", metavar="PREFIX",
                     help="only models whose name starts so (e.g. cfmpa.); the other rows are kept")
     args = ap.parse_args()
     if args.old:
-        record("falsify", [versus(args.old, args.runs)])
+        record("falsify", [versus(args.old, args.runs, args.jobs)])
         return
     record("falsify", robustness(args.seeds, args.max_examples, args.only))
     if not args.only:
