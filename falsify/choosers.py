@@ -59,6 +59,10 @@ class Chooser:
         return self.integer(what, 0, 1) == 1
 
 
+_INTEGERS: dict[tuple[int, int], Any] = {}  # st.integers(lo, hi) by bounds: hypothesis would
+# look each one up in its strategy cache on every draw (the same strategy either way)
+
+
 class HypothesisChooser(Chooser):
     """Decisions drawn from hypothesis's `data` object, so hypothesis can target, shrink
     and replay them."""
@@ -83,7 +87,12 @@ class HypothesisChooser(Chooser):
         return self._draw(self._real)
 
     def integer(self, what: str, lo: int, hi: int) -> int:
-        return self._draw(self.st.integers(lo, hi))
+        strategy = _INTEGERS.get((lo, hi))
+        if strategy is None:
+            if len(_INTEGERS) >= 1000:
+                _INTEGERS.clear()
+            strategy = _INTEGERS[(lo, hi)] = self.st.integers(lo, hi)
+        return self._draw(strategy)
 
     def real_between(self, what: str, lo: float, hi: float) -> float:
         lo, hi = plain_bounds(lo, hi)

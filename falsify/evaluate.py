@@ -135,7 +135,8 @@ class Compiler:
                 only = idx[0]
 
                 def cell(s):
-                    key = (index(only(s)),)
+                    i = only(s)
+                    key = (i if type(i) is int else index(i),)  # an int index as is: the hot path
                     value = s[name].read(key)
                     if value is None:
                         raise NeedValue((name, key), sort)

@@ -605,7 +605,8 @@ def store(s: dict[str, Any], target: Node, value: Any, interp: Interpreter) -> N
 
 
 def copy_state(s: dict[str, Any]) -> dict[str, Any]:
-    return {k: (v.copy() if isinstance(v, Table) else v) for k, v in s.items()}
+    # `type(...) is` (Table has no subclasses): the interpreter copies a state per attempt
+    return {k: (Table(dict(v.cells), v.default) if type(v) is Table else v) for k, v in s.items()}
 
 
 def snapshot(s: dict[str, Any]) -> dict[str, Any]:

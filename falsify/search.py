@@ -46,8 +46,10 @@ from certiloop.falsify.depth import (  # noqa: F401
 )
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import Inexact
+from certiloop.falsify.forked import Forked, can_fork
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
-from certiloop.models.lang.programs import Program, Test, children
+from certiloop.falsify.sort_key_cache import cached_sort_keys
+from certiloop.models.lang.programs import ODE, Program, Test, children
 from certiloop.models.lang.terms import MODALITIES, Node
 from certiloop.models.lang.theorem import Theorem
 
@@ -75,6 +77,8 @@ class Options:
     # all its runs and found nothing (None: max_examples); the gate's budget for safe models
     batch_first: int | None = None  # the batch's first round (None: small, to find an easy
     # counterexample at once); the gate draws a model expected safe in one round
+    jobs: int = 1  # 2 or more: hypothesis searches in a forked child beside the batch phase
+    # (the same result as one after the other, on two cores)
 
     def digest(self) -> str:
         return f"{self.families}/{self.max_steps}"
@@ -135,6 +139,10 @@ def _modal(f: Node) -> bool:
     return f.op in MODALITIES or any(_modal(a) for a in f.args)
 
 
+def _has_flow(p: Program) -> bool:
+    return isinstance(p, ODE) or any(_has_flow(q) for q in children(p))
+
+
 def _modal_tests(p: Program) -> bool:
     return _modal(p.cond) if isinstance(p, Test) else any(_modal_tests(q) for q in children(p))
 
@@ -161,14 +169,11 @@ class _Found(Exception):
         super().__init__(run.violated)
         self.run, self.check, self.script = run, check, script
 
+    def __reduce__(self):  # sent back from a forked search
+        return (_Found, (self.run, self.check, self.script))
+
 
 def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
-    from hypothesis import HealthCheck, Phase, Verbosity, given, reject, settings, target
-    from hypothesis import seed as fixed_seed
-    from hypothesis import strategies as st
-    from hypothesis.database import DirectoryBasedExampleDatabase
-    from hypothesis.errors import Flaky, Unsatisfiable
-
     opts = options or Options()
     if _modal(theorem.assumptions) or _modal(theorem.guarantee) or _modal_tests(theorem.program):
         return Falsification(theorem.name, False, 0, 0.0, skipped="a modality inside the assumptions, the "
@@ -176,23 +181,87 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
     start = time.perf_counter()
     batched = 0
     candidate: Falsification | None = None  # the first run only floating point shows violating
-    if opts.batch_runs > 0:  # many seeded runs at once; a hit is reported only once replayed
-        from certiloop.falsify.batch.phase import batch_search
+    beside: Forked | None = None  # the hypothesis search, forked to run beside the batch phase
+    try:
+        if opts.batch_runs > 0:  # many seeded runs at once; a hit is reported only once replayed
+            from certiloop.falsify.batch.phase import batch_search, batches
 
-        first = {} if opts.batch_first is None else {"first": opts.batch_first}
-        outcome = batch_search(theorem, opts.batch_runs, opts.seed, opts.max_steps, opts.families, **first)
-        if outcome.run is not None:
-            found = Falsification(theorem.name, True, outcome.runs, 0.0, outcome.run, outcome.check,
-                                  outcome.script or [], phase="batch", initial=outcome.initial)
-            return _finish(theorem, opts, found, start)
-        if outcome.candidate is not None:
-            run, check, script, initial, runs = outcome.candidate
-            candidate = Falsification(theorem.name, False, runs, 0.0, run, check, script, phase="batch",
-                                      initial=initial)
-        batched = outcome.runs
-    examples = opts.max_examples
-    if batched and opts.after_batch_examples is not None:
-        examples = min(examples, opts.after_batch_examples)
+            if opts.jobs > 1 and can_fork() and batches(theorem, opts.max_steps):
+                examples = opts.max_examples if opts.after_batch_examples is None \
+                    else min(opts.max_examples, opts.after_batch_examples)
+                if _has_flow(theorem.program):  # both processes follow flows, which import it
+                    import scipy.optimize  # noqa: F401  (0.5 s of CPU: once, before the fork)
+                beside = Forked(lambda: _search(theorem, opts, examples, recording=True))
+            first = {} if opts.batch_first is None else {"first": opts.batch_first}
+            outcome = batch_search(theorem, opts.batch_runs, opts.seed, opts.max_steps, opts.families,
+                                   **first)
+            if outcome.run is not None:
+                found = Falsification(theorem.name, True, outcome.runs, 0.0, outcome.run, outcome.check,
+                                      outcome.script or [], phase="batch", initial=outcome.initial)
+                return _finish(theorem, opts, found, start)
+            if outcome.candidate is not None:
+                run, check, script, initial, runs = outcome.candidate
+                candidate = Falsification(theorem.name, False, runs, 0.0, run, check, script, phase="batch",
+                                          initial=initial)
+            batched = outcome.runs
+        examples = opts.max_examples
+        if batched and opts.after_batch_examples is not None:
+            examples = min(examples, opts.after_batch_examples)
+        if beside is not None:
+            searched, beside = beside.result(), None
+            if searched.writes and opts.database:
+                from hypothesis.database import DirectoryBasedExampleDatabase
+
+                from certiloop.falsify.recording_database import replay_on
+
+                replay_on(DirectoryBasedExampleDatabase(str(opts.database)), searched.writes)
+        else:
+            searched = _search(theorem, opts, examples)
+    finally:
+        if beside is not None:  # the batch phase found a run first (or failed): the search does not count
+            beside.cancel()
+    count, found = searched.count, searched.found
+    if found is not None:
+        result = Falsification(theorem.name, True, batched + count["first"], 0.0, found.run, found.check,
+                               found.script)
+        return _finish(theorem, opts, result, start)
+    if searched.unsatisfiable and candidate is None:  # every draw was rejected: nothing was run,
+        return Falsification(theorem.name, False, 0, time.perf_counter() - start,  # which is not a pass
+                             note=f"no run reached the end in {count['examples']} tries: "
+                             f"{_blocked_note(searched.blocked)}")
+    if candidate is None and searched.floats:
+        f = searched.floats[0]
+        candidate = Falsification(theorem.name, False, batched + count["candidate"], 0.0, f.run, f.check,
+                                  f.script)
+    if candidate is not None:
+        candidate.seconds = time.perf_counter() - start
+        return candidate
+    return Falsification(theorem.name, False, batched + count["examples"], time.perf_counter() - start)
+
+
+@dataclass
+class _Searched:
+    """What the hypothesis search found: the confirmed run to report (None: none), the first
+    float-only one, the example counts, why runs were rejected, and, run beside the batch
+    phase, its database writes still to be made."""
+
+    found: _Found | None
+    floats: list[_Found]
+    count: dict[str, int]
+    blocked: Counter[str]
+    unsatisfiable: bool = False
+    writes: list = field(default_factory=list)
+
+
+def _search(theorem: Theorem, opts: Options, examples: int, recording: bool = False) -> _Searched:
+    """The hypothesis search of `falsify`; `recording`: its database writes are kept in the
+    result (made once the result is used), not made."""
+    from hypothesis import HealthCheck, Phase, Verbosity, given, reject, settings, target
+    from hypothesis import seed as fixed_seed
+    from hypothesis import strategies as st
+    from hypothesis.database import DirectoryBasedExampleDatabase
+    from hypothesis.errors import Flaky, Unsatisfiable
+
     interp = Interpreter(theorem, max_steps=opts.max_steps, families=opts.families)
     count = {"examples": 0, "first": 0, "near": 0}
     blocked: Counter[str] = Counter()  # why runs were rejected, for the note when all were
@@ -234,6 +303,10 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
         raise _Found(run, check, chooser.script)
 
     db = DirectoryBasedExampleDatabase(str(opts.database)) if opts.database else None
+    if db is not None and recording:
+        from certiloop.falsify.recording_database import RecordingDatabase
+
+        db = RecordingDatabase(db)
     phases = list(Phase) if opts.shrink else [p for p in Phase if p != Phase.shrink]
     # settings after seed: `@seed` switches the example database off, and so it was never
     # written (nor a failure found once tried first the next time)
@@ -244,36 +317,24 @@ def falsify(theorem: Theorem, options: Options | None = None) -> Falsification:
                     suppress_health_check=list(HealthCheck))(test)
     test._hypothesis_internal_database_key = hashlib.sha256(  # one database entry per model
         f"{theorem.content_hash}/{opts.digest()}".encode()).digest()
+    searched = _Searched(None, floats, count, blocked)
     try:
-        with _shrink_budget(SHRINK_STEPS), pinned_constants(_literals(theorem)):
+        with _shrink_budget(SHRINK_STEPS), pinned_constants(_literals(theorem)), cached_sort_keys():
             test()
     except _Found as found:
         check = found.check if found.check != "deep" else confirm(theorem, found.script, found.run, opts)
         if not check or check.startswith(FLOAT_ONLY):  # the shrunk run did not replay: the first did
             found = confirmed[0]
             check = found.check
-        result = Falsification(theorem.name, True, batched + count["first"], 0.0, found.run, check,
-                               found.script)
-        return _finish(theorem, opts, result, start)
+        searched.found = _Found(found.run, check, found.script)
     except Unsatisfiable:  # every draw was rejected: nothing was run, which is not a pass
-        if candidate is None:
-            return Falsification(theorem.name, False, 0, time.perf_counter() - start,
-                                 note=f"no run reached the end in {count['examples']} tries: "
-                                 f"{_blocked_note(blocked)}")
+        searched.unsatisfiable = True
     except Flaky:  # a step of the shrinking decided differently from before: the first run stands
         if confirmed:
-            found = confirmed[0]
-            result = Falsification(theorem.name, True, batched + count["first"], 0.0, found.run, found.check,
-                                   found.script)
-            return _finish(theorem, opts, result, start)
-    if candidate is None and floats:
-        f = floats[0]
-        candidate = Falsification(theorem.name, False, batched + count["candidate"], 0.0, f.run, f.check,
-                                  f.script)
-    if candidate is not None:
-        candidate.seconds = time.perf_counter() - start
-        return candidate
-    return Falsification(theorem.name, False, batched + count["examples"], time.perf_counter() - start)
+            searched.found = confirmed[0]
+    if recording and db is not None:
+        searched.writes = db.writes
+    return searched
 
 
 def _finish(theorem: Theorem, opts: Options, found: Falsification, start: float) -> Falsification:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import time
 from pathlib import Path
 
@@ -35,6 +36,9 @@ def add_parser(sub) -> None:
     falsify.add_argument("--database", metavar="DIR", default=".certiloop/hypothesis",
                          help="hypothesis example database, so failures are found again first "
                          "(default .certiloop/hypothesis; 'none' to disable)")
+    falsify.add_argument("--jobs", metavar="N", type=int, default=None,
+                         help="processes (default: 2 on a machine with 2 cores or more): hypothesis searches "
+                         "beside the batch phase, with the same result as one after the other")
     options.verbosity_flags(falsify, "every safety margin at the end of a violating run")
 
 
@@ -58,6 +62,8 @@ def check_falsify_args(args: argparse.Namespace) -> None:
         raise BadInput(f"--max-family must be at least 1, got {args.max_family}")
     if args.steps < 1:
         raise BadInput(f"--steps must be at least 1, got {args.steps}")
+    if args.jobs is not None and args.jobs < 1:
+        raise BadInput(f"--jobs must be at least 1, got {args.jobs}")
     if args.plot and not args.plot.lower().endswith(".png"):
         raise BadInput(f"--plot writes a PNG file; give a name ending in .png, not {args.plot!r}")
     database = None if args.database.lower() == "none" else args.database
@@ -96,7 +102,8 @@ def run(args: argparse.Namespace) -> int:
 
     database = None if args.database.lower() == "none" else Path(args.database)
     search = {"max_examples": args.max_examples, "seed": args.seed, "families": (1, args.max_family),
-              "max_steps": args.steps, "database": database}
+              "max_steps": args.steps, "database": database,
+              "jobs": args.jobs if args.jobs is not None else min(2, os.cpu_count() or 1)}
     out, level = options.console(stderr=args.json == "-"), ui.verbosity(args)
     start, results, docs, unsupported = time.perf_counter(), [], [], []
     try:

@@ -53,6 +53,15 @@ class BatchOutcome:
     candidate: tuple | None = None
 
 
+def batches(theorem: Theorem, max_steps: int) -> bool:
+    """The batch simulator compiles the theorem (else `batch_search` draws no run)."""
+    try:
+        compiled(theorem, max_steps)
+    except Unsupported:
+        return False
+    return True
+
+
 def batch_search(theorem: Theorem, runs: int, seed: int, max_steps: int,
                  families: tuple[int, int], first: int = FIRST_BATCH) -> BatchOutcome:
     """first: the first round's runs. Small finds an easy counterexample at once; a search
