@@ -46,12 +46,12 @@ from certiloop.falsify.depth import (  # noqa: F401
 )
 from certiloop.falsify.evaluate import Blocked
 from certiloop.falsify.flows import Inexact
-from certiloop.falsify.forked import Forked, can_fork
 from certiloop.falsify.interpreter import Interpreter, Rejected, Run
 from certiloop.falsify.sort_key_cache import cached_sort_keys
 from certiloop.models.lang.programs import ODE, Program, Test, children
 from certiloop.models.lang.terms import MODALITIES, Node
 from certiloop.models.lang.theorem import Theorem
+from certiloop.proofs.engine.forked import Forked, can_fork
 
 SHRINK_STEPS = 100  # successful shrinks hypothesis makes (its default, 500, or its clock-bound
 # 5 minutes, make CI wait); a count, not seconds: the same seed gives the same run

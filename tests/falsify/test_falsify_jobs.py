@@ -13,9 +13,9 @@ from certiloop.falsify.choosers import Scripted
 from certiloop.falsify.interpreter import Interpreter
 from certiloop.falsify.search import Options, falsify
 from certiloop.models import library
+from certiloop.proofs.engine.forked import can_fork
 
-pytestmark = pytest.mark.skipif(not __import__("certiloop.falsify.forked", fromlist=["can_fork"]).can_fork(),
-                                reason="no fork on this platform")
+pytestmark = pytest.mark.skipif(not can_fork(), reason="no fork on this platform")
 
 
 def _cli_output(tmp_path, name: str, model: str, jobs: int, seed: int, examples: int) -> tuple[bytes, list]:
