@@ -61,6 +61,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--only", nargs="*", help="run only commands starting with these words")
     ap.add_argument("--gate", nargs="*", metavar="MODEL", help="gate these models (default: all both know)")
+    ap.add_argument("--old-label", default="old", help="the old install's commit, written in each row")
     args = ap.parse_args()
     common = args.gate or sorted(_models(args.old) & _models(args.new)) or None
     rows = []
@@ -76,7 +77,7 @@ def main() -> None:
         name = " ".join(command) + (f" ({len(common)} models)" if command[0] == "gate" and common else "")
         rows.append({"model": name, "old_s": round(o, 2), "new_s": round(n, 2),
                      "old_min_s": round(min(old), 2), "new_min_s": round(min(new), 2),
-                     "speedup": round(o / n, 2), "runs": args.repeats})
+                     "speedup": round(o / n, 2), "runs": args.repeats, "old": args.old_label})
     record("compare", rows)
 
 
