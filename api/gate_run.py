@@ -202,7 +202,7 @@ def _certificate_key(cache, key: str) -> str:
 def _certificate_kept(cache, key: str, hit: dict) -> bool:
     """A cached proved entry counts only with the certificate the checker accepted beside it."""
     return hit.get("verdict") != "proved" or not hit.get("checked") or \
-        cache.get(_certificate_key(cache, key)) is not None
+        cache.get(_certificate_key(cache, key), counted=False) is not None
 
 
 def _unsupported(model: str, reason: str, expected: str = "proved") -> GateEntry:

@@ -65,7 +65,16 @@ class Cache:
     def key(self, kind: str, content: str) -> str:
         return _digest({"kind": kind, "content": content, "versions": self.versions})
 
-    def get(self, key: str) -> Any | None:
+    def get(self, key: str, counted: bool = True) -> Any | None:
+        """The payload stored under key, if the entry is sound; counted: in hits, misses and
+        ignored (a lookup that goes with another one, such as a verdict's certificate, is not)."""
+        before = (self.hits, self.misses, self.ignored)
+        got = self._get(key)
+        if not counted:
+            self.hits, self.misses, self.ignored = before
+        return got
+
+    def _get(self, key: str) -> Any | None:
         path = self.folder / f"{key}.json"
         try:
             entry = json.loads(path.read_text())

@@ -154,16 +154,22 @@ def test_a_division_inside_never_reports_ill_defined():
     assert result.verdict in ("proved", "unknown")
 
 
-def test_the_gate_passes_a_proved_stability_entry_and_skips_its_falsifier(tmp_path, capsys):
+def test_the_gate_skips_a_stability_falsifier_and_fails_it_until_the_checker_covers_it(tmp_path, capsys):
+    """prove proves the stability claim (with a witness for its ∃); the gate says proved only
+    for a proof the proof checker accepted, and the checker does not cover witnesses yet: the
+    gate fails it, with the checker's reason, and does not run the falsifier on a claim no run
+    can refute."""
     from certiloop.cli import main
 
     archive = tmp_path / "stable.kyx"
     archive.write_text(f'ArchiveEntry "stable" ProgramVariables Real x, t; End. Problem {stability(ONE_D)} '
                        'End. End.\n')
+    assert main(["prove", str(archive), "--jobs", "1"]) == 0
     report = tmp_path / "gate.json"
-    assert main(["gate", str(archive), "--no-cache", "--jobs", "1", "--json", str(report)]) == 0
+    assert main(["gate", str(archive), "--no-cache", "--jobs", "1", "--json", str(report)]) == 1
     (entry,) = json.loads(report.read_text())
-    assert entry["verdict"] == "proved" and entry["passed"]
+    assert entry["verdict"] == "unknown" and not entry["passed"]
+    assert "proof checker did not accept" in entry["reason"] and "not checkable yet" in entry["reason"]
     assert entry["falsify"]["verdict"] == "not run" and "modality" in entry["falsify"]["skipped"]
     assert main(["falsify", str(archive)]) == 0
     assert "not run" in capsys.readouterr().out
