@@ -9,6 +9,7 @@ from importlib import import_module
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the same names for type checkers, IDEs and the documentation (read statically)
+    from certiloop.models.lang.conveniences import assign_min, for_range, foreach, if_
     from certiloop.models.lang.programs import (
         ODE,
         Assign,
@@ -19,13 +20,9 @@ if TYPE_CHECKING:  # the same names for type checkers, IDEs and the documentatio
         Seq,
         Test,
         assign,
-        assign_min,
         branch,
         choice,
-        for_range,
-        foreach,
         havoc,
-        if_,
         loop,
         ode,
         seq,
@@ -66,10 +63,10 @@ if TYPE_CHECKING:  # the same names for type checkers, IDEs and the documentatio
 
 _HOME = {
     **dict.fromkeys((
-        "ODE", "Assign", "Choice", "Havoc", "Loop", "Program", "Seq", "Test", "assign",
-        "assign_min", "branch", "choice", "for_range", "foreach", "havoc", "if_", "loop", "ode",
-        "seq", "skip", "test",
+        "ODE", "Assign", "Choice", "Havoc", "Loop", "Program", "Seq", "Test", "assign", "branch",
+        "choice", "havoc", "loop", "ode", "seq", "skip", "test",
     ), "certiloop.models.lang.programs"),
+    **dict.fromkeys(("assign_min", "for_range", "foreach", "if_"), "certiloop.models.lang.conveniences"),
     **dict.fromkeys((
         "BOOL", "FALSE", "INT", "REAL", "TRUE", "And", "Array", "Bool", "Box", "Diamond", "Exists",
         "Family", "ForAll", "Iff", "Implies", "IndexSort", "Int", "Ints", "Ite", "ModelError",

@@ -18,6 +18,7 @@ from certiloop.models.kyx.square_roots import (
     number,
     without_root,
 )
+from certiloop.models.lang.conveniences import if_
 from certiloop.models.lang.nesting import divides
 from certiloop.models.lang.programs import (
     ODE,
@@ -30,7 +31,6 @@ from certiloop.models.lang.programs import (
     children,
     choice,
     havoc,
-    if_,
     loop,
     ode,
     seq,

@@ -1,13 +1,10 @@
-"""Hybrid programs: x := e, x := *, ?Q, a;b, a ∪ b, a* (with invariant), ODE systems.
-
-Conveniences (`if_`, `for_range`, `assign_min`, `foreach`) expand to these, so the proof
-engine and the interpreter only ever see the core constructs.
-"""
+"""Hybrid programs: x := e, x := *, ?Q, a;b, a ∪ b, a* (with invariant), ODE systems, their
+constructors and static semantics (conveniences.py builds more statements from these)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Callable
+from typing import Any
 
 from certiloop.models.lang.printing import show_program
 from certiloop.models.lang.terms import (
@@ -15,13 +12,8 @@ from certiloop.models.lang.terms import (
     INT,
     REAL,
     TRUE,
-    And,
-    ForAll,
-    Implies,
     ModelError,
     Node,
-    Not,
-    Var,
     formula,
     free_vars,
     term,
@@ -298,75 +290,6 @@ def skip() -> Test:
     return Test(TRUE)
 
 
-def if_(cond: Any, then: Program, otherwise: Program | None = None,
-        labels: tuple[str, str] = ("then", "else")) -> Choice:
-    """if cond then `then` else `otherwise` (default: skip), as the choice
-    `?cond; then ∪ ?!cond; otherwise` with the two branches labelled `labels`:
-    `if_(h == 0, assign(v, -c * v), labels=("bounce", "in the air"))`."""
-    c = formula(cond)
-    return choice(branch(labels[0], test(c), then), branch(labels[1], test(Not(c)), otherwise or skip()))
-
-
-def assign_min(target: Node, a: Any, b: Any) -> Choice:
-    """target := min(a, b), as the two-case choice the proof will split on."""
-    a, b = term(a), term(b)
-    return choice(
-        branch(f"{b} >= {a}", test(b >= a), assign(target, a)),
-        branch(f"{b} < {a}", test(b < a), assign(target, b)),
-    )
-
-
-def for_range(var: Node, lo: Any, hi: Any, body: Program, invariant: Any,
-              label: str | None = None) -> Program:
-    """for var in [lo, hi): body — a bounded loop; the invariant may mention `var`.
-
-    Expands to  var := lo; (?var < hi; body; var := var + 1)*; ?var >= hi,
-    with invariant `lo <= var <= hi ∧ invariant` so users only state what the body keeps.
-    """
-    if var.sort != INT:
-        raise ModelError(f"the loop counter `{var}` must be an Int symbol")
-    lo, hi = term(lo), term(hi)
-    inv = And(lo <= var, var <= hi, formula(invariant))
-    step = seq(test(var < hi), body, assign(var, var + 1))
-    counted = Loop(step, inv, label or f"for {var.name}", count=Count(var, hi))
-    return seq(assign(var, lo), counted, test(var >= hi))
-
-
-def foreach(index: Node, done: Node, body: Program, invariant: Any,
-            where: Callable[[Node], Node] | None = None, label: str | None = None) -> Program:
-    """Run `body` once for every element `index` of a finite family (in any order).
-
-    `done` is a Bool family over the index sort that the invariant may mention: it marks
-    the elements processed so far. `where(j)` restricts the family (e.g. active boundaries).
-    Expands to
-        done := *; ?∀j ¬done(j);
-        (index := *; ?¬done(index) ∧ where(index); body; done(index) := true)*  {invariant}
-        ?∀j (where(j) -> done(j))
-    The proof never needs the family's size: the invariant is quantified over it.
-    """
-    if index.op != "var" or index.sort.is_array or index.sort.is_numeric or index.sort == BOOL:
-        raise ModelError(f"foreach needs a symbol of an index sort, got `{index}`")
-    if done.op != "var" or done.sort.domain != (index.sort,) or done.sort.range != BOOL:
-        raise ModelError(f"foreach: `{done}` must be a Bool family over {index.sort}")
-    member = where or (lambda _j: TRUE)
-    # the bound variable of the entry and exit tests: a name the user's `where` does not use
-    taken = set(free_vars(formula(member(index)))) | set(free_vars(done(index))) | {index.name}
-    suffix = 1
-    while f"{index.name}_{suffix}" in taken:
-        suffix += 1
-    other = Var(f"{index.name}_{suffix}", index.sort)
-    step = seq(havoc(index), test(And(Not(done(index)), member(index))), body,
-               assign(done(index), TRUE))
-    body = loop(step, invariant, label or f"foreach {index.name}")
-    body = Loop(body.body, body.invariant, body.label, Each(index, done, formula(member(index))))
-    return seq(
-        havoc(done),
-        test(ForAll(other, Not(done(other)))),
-        body,
-        test(ForAll(other, Implies(member(other), done(other)))),
-    )
-
-
 # --------------------------------------------------------------------------- static semantics
 
 
@@ -415,53 +338,6 @@ def program_symbols(p: Program, annotations: bool = True) -> dict[str, Node]:
     for q in children(p):
         out.update(program_symbols(q, annotations))
     return out
-
-
-def read_first(p: Program) -> dict[str, Node]:
-    """Symbols whose value at the start of `p` some run may read: those read before every
-    assignment to them on some path. The others' initial values cannot matter. An array
-    counts as read whenever a cell of it is (one cell's assignment does not define it)."""
-    reads: dict[str, Node] = {}
-
-    def note(f: Node, defined: frozenset) -> None:
-        reads.update((n, v) for n, v in free_vars(f).items() if n not in defined)
-
-    def walk(q: Program, defined: frozenset) -> frozenset:
-        if isinstance(q, (Assign, Havoc)):
-            target = q.target
-            for index in target.args[1:] if target.op == "select" else ():
-                note(index, defined)
-            if isinstance(q, Assign):
-                note(q.value, defined)
-            if target.op == "var":
-                return defined | {target.payload}
-            note(_target_root(target), defined)  # the other cells keep their values
-            return defined
-        if isinstance(q, Test):
-            note(q.cond, defined)
-            return defined
-        if isinstance(q, ODE):
-            for v, f in q.eqs:
-                note(v, defined)
-                note(f, defined)
-            note(q.domain, defined)
-            return defined
-        if isinstance(q, Seq):
-            for part in q.parts:
-                defined = walk(part, defined)
-            return defined
-        if isinstance(q, Choice):
-            after = [walk(a, defined) for a in q.alternatives]
-            return frozenset.intersection(*after) if after else defined
-        if isinstance(q, Loop):
-            if q.invariant is not None:
-                note(q.invariant, defined)
-            walk(q.body, defined)
-            return defined  # the body may run zero times
-        raise TypeError(q)
-
-    walk(p, frozenset())
-    return reads
 
 
 def is_loop_free(p: Program) -> bool:

@@ -6,7 +6,8 @@ differential cuts (dC), and reasoning from polynomial ODE solutions.
 
 from __future__ import annotations
 
-from certiloop.models.lang.programs import assign, branch, choice, havoc, if_, loop, ode, seq, test
+from certiloop.models.lang.conveniences import if_
+from certiloop.models.lang.programs import assign, branch, choice, havoc, loop, ode, seq, test
 from certiloop.models.lang.roles import Roles
 from certiloop.models.lang.terms import And, Or, Reals
 from certiloop.models.lang.theorem import Theorem

@@ -25,6 +25,7 @@ from certiloop.models.lang.terms import Node
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.arith.smtlib import script
 from certiloop.proofs.checker import keys
+from certiloop.proofs.checker.cases import case_formulas
 from certiloop.proofs.checker.derive import FLOW_TIME, Derivation, Leaf, Rejected
 from certiloop.proofs.checker.keys import Malformed
 from certiloop.proofs.checker.keys import fields as _fields
@@ -35,6 +36,7 @@ FORMAT = "certiloop-certificate/1"
 FORMAT_V2 = "certiloop-certificate/2"  # v1 and leaves proved through a weakening (weakening.py)
 DECIDED = "z3 unsat"  # the one decision procedure of format v1
 WEAKENED = "z3 unsat of a weakening"  # v2: z3 on the leaf's recorded weakening, checked to imply it
+CASES = "z3 unsat by cases"  # v2: z3 on each case the checker builds from the leaf (cases.py)
 RLIMIT = 20_000_000  # z3's resource limit per leaf: a count of its steps, not a clock
 # z3 does not count every step of its quantifier engine: a net against a leaf it never leaves.
 # Reaching it only rejects (never accepts), and no leaf of an accepted library model comes near.
@@ -50,7 +52,7 @@ TOP = {"format", "theorem", "rules", "tree", "leaves"}
 class Outcome:
     status: str  # accepted | rejected | malformed
     message: str
-    leaves: tuple[tuple[str, str], ...] = ()  # (id, SMT-LIB text) of the derivation, when it got that far
+    leaves: tuple[tuple[str, str], ...] = ()  # (id, SMT-LIB text) decided, when it got that far
 
     @property
     def exit_code(self) -> int:
@@ -79,7 +81,8 @@ def check(doc: object, rlimit: int = RLIMIT) -> Outcome:
     besides = "; its non-blocking check is not in the certificate" * theorem.check_nonblocking
     return Outcome("accepted", f"accepted: {name} ({digest}): assumptions -> [program] guarantee, "
                    f"{len(derived)} leaves{besides}",
-                   tuple((leaf.id, text) for leaf, text in zip(derived, texts)))
+                   tuple((f"{leaf.id}.{k}" if len(decided) > 1 else leaf.id, text)
+                         for leaf, decided in zip(derived, texts) for k, text in enumerate(decided, 1)))
 
 
 def _texts(leaves: list[Leaf]) -> tuple[tuple[str, str], ...]:
@@ -90,8 +93,8 @@ WORKERS = 2  # forked children comparing and deciding the leaves, each every WOR
 FAILURES = {"Rejected": Rejected, "NotCheckable": NotCheckable, "Malformed": Malformed}
 
 
-def judge_all(doc: dict, derived: list[Leaf], rlimit: int) -> list[str]:
-    """The text decided for each leaf (_leaf_text), each decided unsat by z3 in forked children
+def judge_all(doc: dict, derived: list[Leaf], rlimit: int) -> list[tuple[str, ...]]:
+    """The texts decided for each leaf (_leaf_text), each decided unsat by z3 in forked children
     (a z3 that ignores its limits is killed); the first failing leaf's failure is raised here."""
     _tree(doc, derived)
     context, pipes, children = multiprocessing.get_context("fork"), [], []
@@ -103,7 +106,7 @@ def judge_all(doc: dict, derived: list[Leaf], rlimit: int) -> list[str]:
         children[-1].start()
         theirs.close()
         pipes.append(mine)
-    texts: dict[int, str] = {}
+    texts: dict[int, tuple[str, ...]] = {}
     failures: list[tuple[int, str, str]] = []
     try:
         while pipes:
@@ -139,10 +142,12 @@ def judge_all(doc: dict, derived: list[Leaf], rlimit: int) -> list[str]:
 def _judge_each(doc: dict, derived: list[Leaf], share: range, rlimit: int, out) -> None:
     for i in share:
         try:
-            text = _leaf_text(doc, derived[i], i)
-            if (why := decide(text, rlimit)) is not None:
-                raise Rejected(f"{_where(derived[i])}: {why}")
-            out.send((i, "ok", text))
+            texts = _leaf_text(doc, derived[i], i)
+            for k, text in enumerate(texts, 1):
+                if (why := decide(text, rlimit)) is not None:
+                    case = f" (case {k} of {len(texts)})" if len(texts) > 1 else ""
+                    raise Rejected(f"{_where(derived[i])}{case}: {why}")
+            out.send((i, "ok", texts))
         except Exception as exc:  # noqa: BLE001 - sent as it is: the parent rejects, never accepts
             out.send((i, type(exc).__name__, str(exc) if type(exc).__name__ in FAILURES else repr(exc)))
             return
@@ -322,8 +327,9 @@ def _tree(doc: dict, derived: list[Leaf]) -> None:
         raise Rejected(f"leaves: {len(doc['leaves'])} recorded, the proof has {len(derived)}")
 
 
-def _leaf_text(doc: dict, leaf: Leaf, i: int) -> str:
-    """The SMT-LIB text to decide for the i-th leaf: its own, or its checked weakening's (v2)."""
+def _leaf_text(doc: dict, leaf: Leaf, i: int) -> tuple[str, ...]:
+    """The SMT-LIB texts to decide for the i-th leaf: its own, its checked weakening's, or
+    its cases' (v2)."""
     v2 = doc["format"] == FORMAT_V2
     got = _fields(doc["leaves"][i], {"id", "path", "smtlib", "decided", *["weakening"] * v2}, "a leaf")
     where = _where(leaf)
@@ -332,11 +338,15 @@ def _leaf_text(doc: dict, leaf: Leaf, i: int) -> str:
     if got["smtlib"] != script(leaf.formula):
         raise Rejected(f"{where}: the recorded formula is not the one this step produces")
     weak = got.get("weakening")
+    if got["decided"] == CASES and v2 and weak is None:
+        if (cases := case_formulas(leaf.formula)) is None:
+            raise Rejected(f"{where}: decided by cases, but it has no guard to split on")
+        return tuple(script(case) for case in cases)
     if got["decided"] != (DECIDED if weak is None else WEAKENED):
         raise NotCheckable(f"decision {got['decided']!r} not checkable yet")
     if weak is not None:
         weakened(leaf.formula, weak, where)  # checked to imply the leaf, its text compared
-    return got["smtlib"] if weak is None else weak["smtlib"]
+    return (got["smtlib"] if weak is None else weak["smtlib"],)
 
 
 __all__ = ["FLOW_TIME", "Outcome", "check", "decide", "tree"]

@@ -2,8 +2,8 @@
 solution checked by differentiation, and "the domain holds along the solution".
 
 Terms go to sympy and back through a table of symbols; every result is a model term over the
-program names of the ODE's variables. Divisions are refused before anything reaches here (the
-checker does not yet check well-definedness), so every term is a polynomial.
+program names of the ODE's variables. A division reaches here only where a leaf of its own
+shows the denominator nonzero (a well-defined leaf, or a premise's `d != 0`).
 """
 
 from __future__ import annotations
@@ -125,8 +125,18 @@ def premise(atom: Node, ode: ODE, method: str, cofactor: Node | None) -> Node | 
     weak = ">=" if op in (">=", ">") else "=="
     if method == "dI":  # p' >= 0 keeps p >= 0 and p > 0; p' = 0 keeps p = 0 and p != 0
         return cmp(weak, dp, 0)
-    if cofactor is not None and divides(cofactor):  # sound only where it is continuous: not yet
-        raise NotCheckable(f"rule dbx with the rational cofactor `{cofactor}` not checkable yet")
+    if method == "dbx" and cofactor is not None and divides(cofactor):
+        # g = n/d is continuous where d != 0, and p' - g p = N/D is >= 0 (= 0) where D != 0 and
+        # N D >= 0 (= 0): then p' = g p (>=) keeps the sign of p as for a polynomial g
+        table = Table()
+        g = sympy.cancel(sympy.together(to_sympy(cofactor, table)))
+        rest = sympy.cancel(sympy.together(to_sympy(dp, table) - g * to_sympy(p, table)))
+        (num, den), g_den = sympy.fraction(rest), sympy.fraction(g)[1]
+        parts = [] if g_den.is_number else [cmp("!=", from_sympy(g_den, table), 0)]
+        if num != 0:
+            parts += [] if den.is_number else [cmp("!=", from_sympy(den, table), 0)]
+            parts.append(cmp(weak, from_sympy(sympy.expand(num * den), table), 0))
+        return And(*parts)
     if method == "dbx" and cofactor is not None and cofactor.sort.is_numeric:
         table = Table()  # p' - g p >= 0 (= 0): the sign of p never changes (Darboux)
         rest = sympy.expand(to_sympy(dp, table) - to_sympy(cofactor, table) * to_sympy(p, table))

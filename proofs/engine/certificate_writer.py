@@ -18,7 +18,7 @@ from certiloop.models.lang.terms import Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.arith.projection import abbreviation_instances
 from certiloop.proofs.arith.smtlib import script
-from certiloop.proofs.checker.certificate import DECIDED, FORMAT, FORMAT_V2, WEAKENED, tree
+from certiloop.proofs.checker.certificate import CASES, DECIDED, FORMAT, FORMAT_V2, WEAKENED, tree
 from certiloop.proofs.core.abstraction import abstract, congruences, fresh_instances, lower_term
 from certiloop.proofs.core.instantiate import instantiate
 from certiloop.proofs.core.lowering import lower
@@ -42,11 +42,13 @@ def certificate(theorem: Theorem, plan: dict[tuple, tuple[OdeStep, ...]], result
                 _weakening(ob, backends.get(ob.id, "z3")))
 
     leaves, weakened = map(list, zip(*forked_map(leaf, len(obligations)))) if obligations else ([], [])
-    if any(w is not None for w in weakened):
-        for leaf, w in zip(leaves, weakened):
-            leaf.update(decided=DECIDED if w is None else WEAKENED, weakening=w)
+    by_cases = [re.fullmatch(r"z3 \(\d+ cases\)", backends.get(ob.id, "")) is not None for ob in obligations]
+    v2 = any(w is not None for w in weakened) or any(by_cases)
+    if v2:
+        for leaf, w, split in zip(leaves, weakened, by_cases):
+            leaf.update(decided=CASES if split else DECIDED if w is None else WEAKENED, weakening=w)
     return {
-        "format": FORMAT_V2 if any(w is not None for w in weakened) else FORMAT,
+        "format": FORMAT_V2 if v2 else FORMAT,
         "theorem": {"name": theorem.name, "hash": theorem.content_hash, "canonical": theorem.canonical},
         "rules": _rules(theorem.program, "0", plan),
         "tree": tree([(ob.id, ob.path) for ob in obligations]),

@@ -8,8 +8,8 @@ from fractions import Fraction
 
 from certiloop.models.lang.terms import And, Implies, Node
 from certiloop.proofs.arith.projection import abbreviation_instances
+from certiloop.proofs.checker.cases import case_formulas
 from certiloop.proofs.core import boxes
-from certiloop.proofs.core.cases import case_formulas
 from certiloop.proofs.core.shaping import shaped_parts
 from certiloop.proofs.core.simplify import simplify
 from certiloop.proofs.core.solver import SolverAnswer, check_valid
@@ -94,7 +94,7 @@ def _check(formula: Node, budget: Budget) -> SolverAnswer:
 
 
 def _by_cases(ob: Obligation, budget: Budget, start: float) -> ObligationResult | None:
-    """The obligation proved case by case on its guards (proofs/core/cases.py), the cases
+    """The obligation proved case by case on its guards (proofs/checker/cases.py), the cases
     sharing one more budget of z3 units; None unless every case is proved."""
     cases = case_formulas(ob.formula)
     if cases is None:

@@ -24,7 +24,6 @@ from certiloop.models.lang.programs import (
     Seq,
     Test,
     program_symbols,
-    read_first,
     seq,
     test,
 )
@@ -40,6 +39,7 @@ from certiloop.proofs.core.wp import expand_modalities, flow_solution, unroll
 from certiloop.proofs.engine.budget import Budget
 from certiloop.proofs.refute.bmc import Encoder
 from certiloop.proofs.refute.finite import model_back, over_family
+from certiloop.proofs.refute.initial_reads import read_first
 
 
 @dataclass

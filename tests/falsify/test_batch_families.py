@@ -15,7 +15,8 @@ from certiloop.falsify.interpreter import Interpreter
 from certiloop.falsify.search import Options, falsify
 from certiloop.falsify.vectorise import Unsupported, VCompiler
 from certiloop.models import library
-from certiloop.models.lang.programs import assign, foreach, havoc, seq
+from certiloop.models.lang.conveniences import foreach
+from certiloop.models.lang.programs import assign, havoc, seq
 from certiloop.models.lang.programs import test as check
 from certiloop.models.lang.terms import BOOL, INT, TRUE, And, Exists, Family, ForAll, IndexSort, Or, Real, Var
 from certiloop.models.lang.theorem import Theorem

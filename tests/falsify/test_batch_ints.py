@@ -15,7 +15,8 @@ from certiloop.falsify.choosers import Scripted
 from certiloop.falsify.interpreter import Interpreter
 from certiloop.falsify.vectorise import Unsupported
 from certiloop.models import library
-from certiloop.models.lang.programs import assign, branch, choice, for_range, havoc, if_, seq, test
+from certiloop.models.lang.conveniences import for_range, if_
+from certiloop.models.lang.programs import assign, branch, choice, havoc, seq, test
 from certiloop.models.lang.terms import BOOL, INT, And, Array, ForAll, Implies, Ints, Not, Or
 from certiloop.models.lang.theorem import Theorem
 

@@ -21,18 +21,8 @@ from certiloop.falsify.evaluate import Blocked, Compiler, Table
 from certiloop.falsify.interpreter import Interpreter
 from certiloop.kernel.extract import ExtractError, controller, extract
 from certiloop.models import library
-from certiloop.models.lang.programs import (
-    ODE,
-    Havoc,
-    assign,
-    branch,
-    choice,
-    havoc,
-    if_,
-    loop,
-    ode,
-    seq,
-)
+from certiloop.models.lang.conveniences import if_
+from certiloop.models.lang.programs import ODE, Havoc, assign, branch, choice, havoc, loop, ode, seq
 from certiloop.models.lang.programs import test as check
 from certiloop.models.lang.terms import TRUE, And, Reals
 from certiloop.models.lang.theorem import Theorem

@@ -10,7 +10,8 @@ the state database records exactly the collision predicate over the whole (k, i,
 
 from __future__ import annotations
 
-from certiloop.models.lang.programs import assign, for_range, havoc, if_, seq, test
+from certiloop.models.lang.conveniences import for_range, if_
+from certiloop.models.lang.programs import assign, havoc, seq, test
 from certiloop.models.lang.terms import BOOL, INT, And, Array, ForAll, Implies, Ints, Not, Or
 from certiloop.models.lang.theorem import Theorem
 

@@ -35,18 +35,8 @@ from __future__ import annotations
 
 from fractions import Fraction
 
-from certiloop.models.lang.programs import (
-    assign,
-    assign_min,
-    branch,
-    choice,
-    havoc,
-    if_,
-    loop,
-    seq,
-    skip,
-    test,
-)
+from certiloop.models.lang.conveniences import assign_min, if_
+from certiloop.models.lang.programs import assign, branch, choice, havoc, loop, seq, skip, test
 from certiloop.models.lang.terms import BOOL, INT, And, Array, Implies, Int, Ints, Not, Or, Real, Reals
 from certiloop.models.lang.theorem import Theorem
 

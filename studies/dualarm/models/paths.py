@@ -22,17 +22,8 @@ variables i j k i' j', which are determined by k); the two are equivalent.
 
 from __future__ import annotations
 
-from certiloop.models.lang.programs import (
-    assign,
-    branch,
-    choice,
-    for_range,
-    havoc,
-    if_,
-    seq,
-    skip,
-    test,
-)
+from certiloop.models.lang.conveniences import for_range, if_
+from certiloop.models.lang.programs import assign, branch, choice, havoc, seq, skip, test
 from certiloop.models.lang.terms import INT, And, Array, ForAll, Implies, Int, Ints, Or
 from certiloop.models.lang.theorem import Theorem
 

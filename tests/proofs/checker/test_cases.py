@@ -1,4 +1,4 @@
-"""Case analysis on abs/min/max guards (proofs/core/cases.py): the cases together are
+"""Case analysis on abs/min/max guards (proofs/checker/cases.py): the cases together are
 equivalent to the obligation, a false obligation stays unproved, and an obligation z3 finds
 hard as a whole is proved case by case."""
 
@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from certiloop.models.lang.terms import And, Iff, Implies, Or, Real
-from certiloop.proofs.core.cases import MAX_GUARDS, case_formulas, guards
+from certiloop.proofs.checker.cases import MAX_GUARDS, case_formulas, guards
 from certiloop.proofs.core.solver import check_valid
 from certiloop.proofs.core.vcgen import Obligation
 from certiloop.proofs.engine.budget import Budget

@@ -1,4 +1,5 @@
-"""Case analysis on the guards of case-split definitions (trusted, small).
+"""Case analysis on the guards of case-split definitions: the prover splits a hard leaf this
+way, and the checker rebuilds the same cases from the leaf alone (a certificate names no guard).
 
 abs, min and max become disjunctions `a >= 0 & ... | a < 0 & ...`. An obligation `H -> G` is
 valid iff `H & C -> G` is for every combination C of truth values of some atoms: the
