@@ -2,7 +2,8 @@
 
 `defined(f)` holds exactly in the states where evaluating f never divides by 0, connectives
 read left to right (in `b != 0 & a/b > 1` the division is only evaluated where b != 0), a
-quantifier's body for every value of its variables. Once every division is shown to have a
+quantifier's body for every value of its variables; the theorem's assumptions also under
+their conjuncts defined everywhere (`settled_conjuncts`). Once every division is shown to have a
 nonzero denominator where it is evaluated, z3's reading of x/0 cannot matter.
 """
 
@@ -31,6 +32,16 @@ def denominators(f: Node) -> list[Node]:
             walk(a)
     walk(f)
     return out
+
+
+def settled_conjuncts(f: Node) -> tuple[Node, ...]:
+    """The conjuncts of f that are defined everywhere (no division, no modality): where one is
+    false f is false, so the others need to be defined only where these all hold."""
+    return tuple(a for a in (f.args if f.op == "and" else ()) if not divides(a) and not modal(a))
+
+
+def modal(f: Node) -> bool:
+    return f.op in ("box", "diamond") or any(modal(a) for a in f.args)
 
 
 def defined(f: Node) -> Node:

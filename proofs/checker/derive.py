@@ -26,7 +26,7 @@ from typing import Callable
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import REAL, And, Exists, Implies, Node, Var, free_vars, store, substitute
 from certiloop.models.lang.theorem import Theorem
-from certiloop.proofs.checker.defined import defined, divides
+from certiloop.proofs.checker.defined import defined, divides, settled_conjuncts
 from certiloop.proofs.checker.ode_facts import NotCheckable, check_solution, premise, runs_along
 
 FLOW_TIME = Var("s@flow")  # the time variable of a recorded solution
@@ -67,7 +67,8 @@ class Derivation:
         self.leaves: list[Leaf] = []
 
     def run(self) -> list[Leaf]:
-        self.require(State((), {}, ()), "the assumptions", self.theorem.assumptions)
+        self.require(State(settled_conjuncts(self.theorem.assumptions), {}, ()), "the assumptions",
+                     self.theorem.assumptions)
         start = State((self.theorem.assumptions,), {}, ())
         for name, fact in self.theorem.ghosts:  # fresh names (Theorem checks): one exists, then any
             at = start.at(f"ghost {name}: {fact}")

@@ -30,7 +30,7 @@ from certiloop.models.lang.terms import (
     substitute,
     term,
 )
-from certiloop.proofs.checker.defined import denominators, divides
+from certiloop.proofs.checker.defined import denominators, divides, modal
 
 
 class NotCheckable(Exception):
@@ -116,7 +116,7 @@ def premise(atom: Node, ode: ODE, method: str, cofactor: Node | None) -> Node | 
     mention the flow's variables (it is then constant along it)."""
     if atom.op == "implies":
         guard, core = atom.args
-        if set(free_vars(guard)) & {v.payload for v in ode.variables} or _modal(guard):
+        if set(free_vars(guard)) & {v.payload for v in ode.variables} or modal(guard):
             raise NotCheckable(f"the guarded invariant `{atom}` whose guard changes along the flow")
         inner = premise(core, ode, method, cofactor)
         return None if inner is None else Implies(guard, inner)
@@ -152,10 +152,6 @@ def premise(atom: Node, ode: ODE, method: str, cofactor: Node | None) -> Node | 
     if method == "nonzero" and not divides(p):  # p never 0 in the domain: p keeps its initial sign
         return cmp("!=", p, 0)
     raise NotCheckable(f"rule {method} for `{atom}` not checkable yet")
-
-
-def _modal(f: Node) -> bool:
-    return f.op in ("box", "diamond") or any(_modal(a) for a in f.args)
 
 
 def check_solution(ode: ODE, solution: dict[str, Node], s: Node) -> str | None:

@@ -36,16 +36,19 @@ def evaluate(n: Node, state: dict[str, Any]) -> Any:
         return _bounded_quantifier(n, state)
     if op in ("box", "diamond"):
         raise Undecided(f"cannot evaluate the modal formula `{n}` here")
-    if op == "and":
-        vals = [evaluate(a, state) for a in n.args]
-        if any(v is False for v in vals):
-            return False
-        return True if all(v is True for v in vals) else None
-    if op == "or":
-        vals = [evaluate(a, state) for a in n.args]
-        if any(v is True for v in vals):
-            return True
-        return False if all(v is False for v in vals) else None
+    if op in ("and", "or"):  # one false conjunct (true disjunct) decides, whatever the others read
+        decisive, vals, undecided = op == "or", [], None
+        for a in n.args:
+            try:
+                vals.append(evaluate(a, state))
+            except Undecided as exc:  # e.g. a division by zero in another part
+                vals.append(None)
+                undecided = undecided or exc
+        if any(v is decisive for v in vals):
+            return decisive
+        if undecided is not None:
+            raise undecided
+        return (not decisive) if all(v is (not decisive) for v in vals) else None
     if op == "not":
         v = evaluate(n.args[0], state)
         return None if v is None else not v

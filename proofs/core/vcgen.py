@@ -75,7 +75,7 @@ from certiloop.proofs.core.odes import (
     runs_along,
     solvable,
 )
-from certiloop.proofs.core.wd import defined, has_division
+from certiloop.proofs.core.wd import defined, has_division, settled_conjuncts
 from certiloop.proofs.core.wdmodal import defined_modal, may_overstate
 from certiloop.proofs.core.wp import diamond, expand_modalities, unroll
 
@@ -177,7 +177,8 @@ class VCGen:
     def run(self) -> list[Obligation]:
         t = self.theorem
         assumptions = expand_modalities(t.assumptions, self.names)
-        self.require_defined(State((), {}, ()), "the assumptions", t.assumptions)
+        settled = State(settled_conjuncts(t.assumptions), {}, ())
+        self.require_defined(settled, "the assumptions", t.assumptions)
         for what, condition in t.well_defined:  # a translation's side conditions (kyx square roots)
             self.emit(State((), {}, ()), condition, f"well-defined: {what}", "defined")
         for what, condition in t.defined_if:  # stricter than needed: failing shows nothing

@@ -3,8 +3,11 @@
 `defined(f)` is a formula that holds exactly in the states where evaluating f never divides
 by zero. Connectives are read left to right, as a programmer reads them: in `b != 0 & a/b > 1`
 the division is only evaluated where `b != 0` holds, so the formula is well-defined
-everywhere. Quantifiers ask it for every value of their variables: `\\forall b b*(1/b) = 1`
-is defined nowhere, however its body would be read.
+everywhere. The theorem's assumptions may also rely on their conjuncts that are defined
+everywhere, wherever those stand (`settled_conjuncts`: a false one makes the assumptions false
+whatever the others read, and the claim then holds of that state). Quantifiers ask it for
+every value of their variables: `\\forall b b*(1/b) = 1` is defined nowhere, however its body
+would be read.
 
 The obligation generator asks, at every statement, test, assertion and ODE, that what is
 evaluated there is defined in that context. Once every division is known to have a nonzero
@@ -60,6 +63,18 @@ def defined(f: Node) -> Node:
     if op in ("not", "iff"):
         return And(*(defined(a) for a in f.args))
     return defined_term(f)  # comparisons and terms: every part is evaluated
+
+
+def settled_conjuncts(f: Node) -> tuple[Node, ...]:
+    """The conjuncts of f that are defined everywhere (no division, no modality). Where one of
+    them is false, f is false however its other conjuncts read, so those need to be defined
+    only where these all hold: the assumptions `x + v^2/(2*B) <= m & B > 0` are meaningful
+    as the literature writes them (at B = 0 they are false, not undefined)."""
+    return tuple(a for a in (f.args if f.op == "and" else ()) if not has_division(a) and not _modal(a))
+
+
+def _modal(f: Node) -> bool:
+    return f.op in MODALITIES or any(_modal(a) for a in f.args)
 
 
 def _left_to_right(args, reached) -> Node:
