@@ -479,10 +479,27 @@ def test_cli_writes_source_and_header(tmp_path):
                            "c", "-o", str(out), "--cache", str(tmp_path / "cache")],
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    assert sorted(p.name for p in out.iterdir()) == ["textbook_train.c", "textbook_train.h"]
+    written = sorted(p.name for p in out.iterdir())
+    assert written == ["certiloop_runtime.h", "textbook_train.c", "textbook_train.h"]
     fresh = extract_c(library.get("textbook.train"))
     assert (out / "textbook_train.c").read_text() == fresh["textbook_train.c"]
     build({p.name: p.read_text() for p in out.iterdir()}, tmp_path / "build")
+
+
+def test_the_runtime_is_a_header_of_its_own(tmp_path):
+    """Every kernel includes certiloop_runtime.h rather than carrying a copy; the header stands
+    alone (its own includes), and two kernels in one translation unit share it (include guard)."""
+    from certiloop.kernel.extract.c.certified import RUNTIME_HEADER
+
+    train, ball = extract_c(library.get("textbook.train")), extract_c(library.get("textbook.water_tank"))
+    assert train[RUNTIME_HEADER] == ball[RUNTIME_HEADER]
+    for files in (train, ball):
+        source = next(text for name, text in files.items() if name.endswith(".c"))
+        assert f'#include "{RUNTIME_HEADER}"' in source and "typedef struct" not in source
+    both = {**train, **ball, "both.c": "#include \"textbook_train.h\"\n#include \"textbook_water_tank.h\"\n"
+            f"#include \"{RUNTIME_HEADER}\"\n#include \"{RUNTIME_HEADER}\"\n"
+            "int both(void) { return cl_in_range(1.0); }\n"}
+    build({k: v for k, v in both.items() if not (k.endswith(".c") and k != "both.c")}, tmp_path / "both")
 
 
 def test_cli_lang_c_needs_a_folder():
