@@ -19,7 +19,7 @@ from certiloop.proofs.arith.smtlib import script
 from certiloop.proofs.checker import keys
 from certiloop.proofs.checker.derive import Rejected
 from certiloop.proofs.checker.keys import Malformed, fields
-from certiloop.proofs.checker.ode_facts import NotCheckable, Table, to_sympy
+from certiloop.proofs.checker.ode_facts import NotCheckable
 
 FIELDS = {"instances", "lowered", "abbreviations", "facts", "atoms", "smtlib"}
 BINDERS = ("forall", "exists")
@@ -239,10 +239,29 @@ def _identity(a: Node, b: Node) -> bool:
     """a and b compare a - b the same polynomial with 0 (only + - * ^n and division by numbers)."""
     if not all(x.sort.is_numeric and _polynomial(x) for x in (*a.args, *b.args)):
         return False
-    t = Table()
-    lhs, rhs = (to_sympy(x.args[0], t) - to_sympy(x.args[1], t) for x in (a, b))
-    ring = sympy.polys.rings.ring(list(t.back), sympy.QQ)[0]  # sparse polynomials: faster than expand
-    return ring(lhs) == ring(rhs)
+    atoms: dict[tuple, int] = {}  # each symbol or array read: one generator of the ring
+    stack = [x for c in (a, b) for x in c.args]
+    while stack:
+        n = stack.pop()
+        if n.op in ("var", "select"):
+            atoms.setdefault(n.key, len(atoms))
+        else:
+            stack.extend(n.args)
+    # sparse polynomials built directly: no sympy expression, no expansion
+    ring, *gens = sympy.polys.rings.ring([f"x{i}" for i in range(max(1, len(atoms)))], sympy.QQ)
+
+    def poly(n: Node):
+        if n.op == "const":
+            return ring(sympy.QQ(n.payload.numerator, n.payload.denominator))
+        if n.op in ("var", "select"):
+            return gens[atoms[n.key]]
+        ps = [poly(x) for x in n.args]
+        if n.op == "/":  # by a nonzero number (_polynomial)
+            return ps[0] * ring(sympy.QQ(n.args[1].payload.denominator, n.args[1].payload.numerator))
+        if n.op in ("+", "*"):
+            return sum(ps) if n.op == "+" else sympy.prod(ps)
+        return -ps[0] if n.op == "neg" else ps[0] ** n.payload
+    return poly(a.args[0]) - poly(a.args[1]) == poly(b.args[0]) - poly(b.args[1])
 
 
 def _polynomial(n: Node) -> bool:
