@@ -43,16 +43,23 @@ def test_a_false_obligation_is_not_proved_by_cases():
     assert discharge_one(ob, Budget()).verdict != "proved"
 
 
-def test_cases_prove_what_the_whole_does_not_within_the_budget():
+def lane_step(bound_after=None):
     """The shape of KeYmaera X's STTT example 10 (lane keeping): from |y - ly| + v^2/(2b) plus a
-    margin below lw and a step bounded by c (v - a c/2), |y' - ly| + v'^2/(2b) < lw."""
+    margin below lw and a step bounded by c (v - a c/2), |y' - ly| + v'^2/(2b) < bound_after
+    (default lw, where it holds: the margin covers the step). (hypotheses, goal)"""
     y1, y6, ly, v1, v6, a, c, b, lw, A, ep = (Real(n) for n in "y1 y6 ly v1 v6 a c b lw A ep".split())
+    bound = lw if bound_after is None else bound_after(lw)
     margin = (A / b + 1) * (A / 2 * ep * ep + ep * v1)
     hyps = And(b > 0, A > 0, ep > 0, v1 >= 0, v6 >= 0, 0 <= c, c <= ep, a <= A, a >= -b,
                v6 == v1 + a * c, -c * (v6 - a / 2 * c) <= y6 - y1, y6 - y1 <= c * (v6 - a / 2 * c),
                Or(And(y1 - ly >= 0, y1 - ly + v1 * v1 / (2 * b) + margin < lw),
                   And(y1 - ly < 0, -(y1 - ly) + v1 * v1 / (2 * b) + margin < lw)))
-    goal = Or(And(y6 - ly >= 0, y6 - ly + v6 * v6 / (2 * b) < lw),
-              And(y6 - ly < 0, -(y6 - ly) + v6 * v6 / (2 * b) < lw))
+    goal = Or(And(y6 - ly >= 0, y6 - ly + v6 * v6 / (2 * b) < bound),
+              And(y6 - ly < 0, -(y6 - ly) + v6 * v6 / (2 * b) < bound))
+    return hyps, goal
+
+
+def test_cases_prove_what_the_whole_does_not_within_the_budget():
+    hyps, goal = lane_step()
     result = discharge_one(Obligation("o1", "lane", Implies(hyps, goal), "t", {}), Budget())
     assert result.verdict == "proved" and result.backend == "z3 (4 cases)", result.backend

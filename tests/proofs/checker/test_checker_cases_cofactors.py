@@ -13,22 +13,14 @@ from certiloop.proofs.checker.certificate import CASES
 from certiloop.proofs.core.odes import OdeStep
 from certiloop.proofs.engine.certificate_writer import certificate
 
+from .test_cases import lane_step
+
 x, z = Reals("x z")
 
 
-def _lane(bound_after):
-    """KeYmaera X's STTT example 10 (lane keeping), one step: from |y - ly| + v^2/(2b) plus a
-    margin below lw and a step bounded by c (v - a c/2), |y' - ly| + v'^2/(2b) < bound_after.
-    With bound_after = lw it holds (the margin covers the step)."""
-    y1, y6, ly, v1, v6, a, c, b, lw, big_a, ep = Reals("y1 y6 ly v1 v6 a c b lw A ep")
-    margin = (big_a / b + 1) * (big_a / 2 * ep * ep + ep * v1)
-    hyps = And(b > 0, big_a > 0, ep > 0, v1 >= 0, v6 >= 0, 0 <= c, c <= ep, a <= big_a, a >= -b,
-               v6 == v1 + a * c, -c * (v6 - a / 2 * c) <= y6 - y1, y6 - y1 <= c * (v6 - a / 2 * c),
-               Or(And(y1 - ly >= 0, y1 - ly + v1 * v1 / (2 * b) + margin < lw),
-                  And(y1 - ly < 0, -(y1 - ly) + v1 * v1 / (2 * b) + margin < lw)))
-    goal = Or(And(y6 - ly >= 0, y6 - ly + v6 * v6 / (2 * b) < bound_after),
-              And(y6 - ly < 0, -(y6 - ly) + v6 * v6 / (2 * b) < bound_after))
-    return Theorem("tiny.lane", hyps, skip(), goal)
+def _lane(bound_after=None) -> Theorem:
+    hypotheses, goal = lane_step(bound_after)
+    return Theorem("tiny.lane", hypotheses, skip(), goal)
 
 
 def _certificate(theorem: Theorem) -> dict:
@@ -40,7 +32,7 @@ def _certificate(theorem: Theorem) -> dict:
 def test_the_prover_records_a_leaf_it_split_and_the_checker_splits_it_alike():
     """The lane step is valid; the prover closes it by four cases. The checker reads the leaf
     as printed, without the prover's constant folding, and needs more z3 units for it."""
-    doc = _certificate(_lane(Reals("lw")[0]))
+    doc = _certificate(_lane())
     split = [leaf for leaf in doc["leaves"] if leaf["decided"] == CASES]
     assert len(split) == 1 and split[0]["weakening"] is None
     outcome = check(doc, rlimit=100_000_000)
