@@ -54,7 +54,38 @@ def _up(x: float) -> float:
     return math.nextafter(x, math.inf)
 
 
-class Bounded:
+class _BySign:
+    """The six comparisons from `self._sign(other)`: -1, 0 or 1, or None (not comparable)."""
+
+    __slots__ = ()
+    __hash__ = None  # type: ignore[assignment]
+
+    def __lt__(self, other):
+        s = self._sign(other)
+        return NotImplemented if s is None else s < 0
+
+    def __le__(self, other):
+        s = self._sign(other)
+        return NotImplemented if s is None else s <= 0
+
+    def __gt__(self, other):
+        s = self._sign(other)
+        return NotImplemented if s is None else s > 0
+
+    def __ge__(self, other):
+        s = self._sign(other)
+        return NotImplemented if s is None else s >= 0
+
+    def __eq__(self, other):
+        s = self._sign(other)
+        return NotImplemented if s is None else s == 0
+
+    def __ne__(self, other):
+        s = self._sign(other)
+        return NotImplemented if s is None else s != 0
+
+
+class Bounded(_BySign):
     """A float v with |v - x| <= e for the real value x (e = 0: exact)."""
 
     __slots__ = ("v", "e")
@@ -141,30 +172,6 @@ class Bounded:
         if math.isfinite(d) and abs(d) > e:
             return 1 if d > 0 else -1
         raise Undecided
-
-    def __lt__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s < 0
-
-    def __le__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s <= 0
-
-    def __gt__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s > 0
-
-    def __ge__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s >= 0
-
-    def __eq__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s == 0
-
-    def __ne__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s != 0
 
     def __bool__(self):
         return self != 0
@@ -398,7 +405,7 @@ def _sqrt_up(q: Fraction) -> Fraction:
     return r + step
 
 
-class Enclosure:
+class Enclosure(_BySign):
     """An irrational value of the exact pass (a square root and what is computed from it): a
     rational interval [lo, hi] holding it. A comparison is decided where the interval lies on
     one side; else the exact pass gives up (NoRun: the caller falls back)."""
@@ -475,30 +482,6 @@ class Enclosure:
         if self.lo == self.hi == b.lo == b.hi:
             return 0
         raise NoRun  # within the enclosures' width: not decided
-
-    def __lt__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s < 0
-
-    def __le__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s <= 0
-
-    def __gt__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s > 0
-
-    def __ge__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s >= 0
-
-    def __eq__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s == 0
-
-    def __ne__(self, other):
-        s = self._sign(other)
-        return NotImplemented if s is None else s != 0
 
 
 FLOAT = _Float()

@@ -128,17 +128,20 @@ def _index(x: float) -> int:
 
 def boundary(name: str, state: dict, var: str, lo: float, hi: float):
     """Adjacent floats a < b of `var` between lo and hi where the exact model's decision
-    changes (bisection over the floats), or None."""
-    def decision(x):
-        return oracle(name, {**state, var: x})[0]
+    changes, or None."""
+    return edge(lambda x: oracle(name, {**state, var: x})[0], lo, hi)
 
-    d_lo, d_hi = decision(lo), decision(hi)
+
+def edge(decide, lo: float, hi: float) -> float | None:
+    """Adjacent floats a < b between lo and hi where decide(x) changes, by bisection over the
+    floats: a (or None where an end or a midpoint has no decision)."""
+    d_lo, d_hi = decide(lo), decide(hi)
     if d_lo is None or d_hi is None or d_lo == d_hi:
         return None
     i, j = _index(lo), _index(hi)
     while j - i > 1:
         mid = (i + j) // 2
-        d = decision(_float_at(mid))
+        d = decide(_float_at(mid))
         if d is None:
             return None
         if d == d_lo:

@@ -37,7 +37,7 @@ from certiloop.falsify.interpreter import Interpreter
 from certiloop.kernel.extract.modelplex import monitors
 from certiloop.models import library
 from kernel.test_extract import step_theorem
-from kernel.test_extract_ties import _float_at, _index
+from kernel.test_extract_ties import _float_at, _index, edge
 from kernel.test_monitors import all_finals
 
 DIMS = {"sbs.ctrl2": "xyz", "sbs.ctrl2_2d": "xy", "sbs.ctrl2_dynamic": "xyz"}
@@ -149,28 +149,10 @@ def tie_values(draw, name: str, magnitude: int = 0):
         return {**values, var: np.array([x]) if var[0] in "rn" else x}
 
     for lo, hi in [(-scale * 100, scale * 100), (0.0, scale * 100), (-scale * 100, 0.0), (-1e300, 1e300)]:
-        edge = _edge(lambda x: decision(name, at(x)), lo, hi)
-        if edge is not None:
-            return at(nudge(edge, draw(st.sampled_from([-1, 1])) * draw(st.sampled_from(ULPS))))
+        found = edge(lambda x: decision(name, at(x)), lo, hi)
+        if found is not None:
+            return at(nudge(found, draw(st.sampled_from([-1, 1])) * draw(st.sampled_from(ULPS))))
     return values
-
-
-def _edge(decide, lo: float, hi: float) -> float | None:
-    """Adjacent floats a < b between lo and hi where the decision changes: a (or None)."""
-    d_lo, d_hi = decide(lo), decide(hi)
-    if d_lo is None or d_hi is None or d_lo == d_hi:
-        return None
-    i, j = _index(lo), _index(hi)
-    while j - i > 1:
-        mid = (i + j) // 2
-        d = decide(_float_at(mid))
-        if d is None:
-            return None
-        if d == d_lo:
-            i = mid
-        else:
-            j = mid
-    return _float_at(i)
 
 
 def commands(model_runs) -> list[tuple[float, float]]:
