@@ -17,18 +17,23 @@ STYLE = {"proved": "green", "refuted": "red", "unknown": "yellow", "rule failed"
          "not supported": "magenta"}
 
 # an obligation that is false past an incomplete rule shows the rule failing, not the claim
+# each names the annotation in the Python DSL and, after "kyx:", in a KeYmaera X archive
 RULE_HINTS = {
-    "dW": "this ODE has no polynomial solution, so after it only its domain is known: "
-          "add invariants=[...] to its ode(...) (differential invariants that give what is needed)",
+    "dW": "this ODE has no polynomial solution, so after it only its domain is known: add "
+          "differential invariants that give what is needed (ode(..., invariants=[...]); "
+          "kyx: `{x' = ...}@invariant(...)`)",
     "dI": "this differential invariant is not preserved by the flow (its derivative condition "
           "fails): choose another one, or cut in a helper invariant before it",
-    "dI-init": "this differential invariant does not hold when the ODE starts: fix invariants=[...]",
-    "dC": "the ODE's differential invariants do not give what is needed after it: add a "
-          "stronger one to invariants=[...]",
+    "dI-init": "this differential invariant does not hold when the ODE starts: fix it "
+               "(ode(..., invariants=[...]); kyx: `{x' = ...}@invariant(...)`)",
+    "dC": "the ODE's differential invariants do not give what is needed after it: add a stronger one "
+          "(ode(..., invariants=[...]); kyx: `{x' = ...}@invariant(...)`)",
     "guarantee-as-invariant": "this loop has no invariant, so the guarantee is used and it is not "
-                              "inductive: give loop(..., invariant=J)",
-    "loop-invariant": "the loop invariant is not strong enough here: strengthen loop(..., invariant=J)",
-    "loop-init": "the loop invariant does not hold when the loop starts: fix loop(..., invariant=J)",
+                              "inductive: give one (loop(..., invariant=J); kyx: `{...}*@invariant(J)`)",
+    "loop-invariant": "the loop invariant is not strong enough here: strengthen loop(..., invariant=J) "
+                      "(kyx: `{...}*@invariant(J)`)",
+    "loop-init": "the loop invariant does not hold when the loop starts: fix loop(..., invariant=J) "
+                 "(kyx: `{...}*@invariant(J)`)",
 }
 
 
