@@ -224,7 +224,7 @@ def _doc(outputs, families, sizes) -> str:
 
 def compile_error(files: dict[str, str]) -> str | None:
     """The first diagnostic of the C compiler on the generated files (with -Werror, under
-    -std=c99 and -std=c11), None where they compile or no compiler is on the PATH: the last
+    -std=c99, -std=c11 and the compiler's default), None where they compile or no compiler is on the PATH: the last
     guard that extract never writes C that does not build."""
     import subprocess
     import tempfile
@@ -239,8 +239,10 @@ def compile_error(files: dict[str, str]) -> str | None:
         for name, text in files.items():
             (Path(tmp) / name).write_text(text)
         source = next(name for name in files if name.endswith(".c"))
-        for std in ("-std=c99", "-std=c11"):
-            flags = [f for f in CFLAGS if not f.startswith("-std=")] + [std, "-fsyntax-only"]
+        # the compiler's default (GNU) mode too: `cc -Wall -Wextra -Werror -pedantic` as a user
+        # types it, where <math.h> defines more macros (M_SQRT2) than under -std=c99
+        for std in ("-std=c99", "-std=c11", None):
+            flags = [f for f in CFLAGS if not f.startswith("-std=")] + [std, "-fsyntax-only"][std is None:]
             done = subprocess.run([cc, *flags, source], cwd=tmp, capture_output=True, text=True)
             if done.returncode != 0 or done.stderr.strip():
                 lines = [line for line in done.stderr.splitlines() if "error" in line or "warning" in line]

@@ -31,9 +31,22 @@ C_RESERVED = C_KEYWORDS | {
 }
 
 
+C_NAME_LENGTH = 48  # longer model names are cut, with a digest of the whole name kept apart
+
+
 def c_name(model: str) -> str:
-    """sbs.ctrl2 -> sbs_ctrl2: the prefix of every C symbol the model's kernel defines."""
-    return re.sub(r"[^0-9A-Za-z_]", "_", model)
+    """sbs.ctrl2 -> sbs_ctrl2: the prefix of every C symbol the model's kernel defines and the
+    files' name, always an identifier (a leading digit gets `m_`) short enough for any file
+    system (a long name is cut and ends in a digest of the whole name)."""
+    import hashlib
+
+    base = re.sub(r"[^0-9A-Za-z_]", "_", model)
+    if base[:1].isdigit():
+        base = "m_" + base
+    if len(base) > C_NAME_LENGTH:
+        digest = hashlib.sha256(model.encode()).hexdigest()[:10]
+        base = f"{base[:C_NAME_LENGTH - 11]}_{digest}"
+    return base
 
 
 def c_type(sort) -> str:
