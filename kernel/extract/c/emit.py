@@ -224,8 +224,8 @@ def _doc(outputs, families, sizes) -> str:
 
 def compile_error(files: dict[str, str]) -> str | None:
     """The first diagnostic of the C compiler on the generated files (with -Werror, under
-    -std=c99, -std=c11 and the compiler's default), None where they compile or no compiler is on the PATH: the last
-    guard that extract never writes C that does not build."""
+    -std=c99, -std=c11 and the compiler's default), None where they compile or no compiler is
+    on the PATH: the last guard that extract never writes C that does not build."""
     import subprocess
     import tempfile
     from pathlib import Path
