@@ -168,6 +168,16 @@ class Node:
     __float__ = __int__ = __index__ = __complex__ = _not_a_number
     __round__ = __trunc__ = __floor__ = __ceil__ = __abs__ = _not_a_number
 
+    def _no_operator(self, *_args) -> Any:
+        """x % 2, x // 2, 2 ** x, x @ y: operators the models' arithmetic does not have."""
+        raise ModelError(
+            f"`{self}` is a model term: %, //, divmod, @ and a symbolic exponent (2 ** x) are not "
+            "part of the models' arithmetic; use +, -, *, / (real division) and ** with a natural "
+            "number literal as the exponent")
+
+    __mod__ = __rmod__ = __floordiv__ = __rfloordiv__ = __divmod__ = __rdivmod__ = _no_operator
+    __matmul__ = __rmatmul__ = __rpow__ = _no_operator
+
     def __str__(self) -> str:
         return show(self)
 
