@@ -14,6 +14,8 @@ from typing import Any, Iterable
 
 from certiloop.models.lang.printing import show
 
+MAX_EXPONENT = 10_000  # the largest natural exponent of a power in a model
+
 
 class ModelError(ValueError):
     """A model is ill-formed; the message names the place and the fix. Raised when a term,
@@ -233,6 +235,9 @@ class Node:
     def __pow__(self, n):
         if not isinstance(n, int) or isinstance(n, bool) or n < 0:
             raise ModelError(f"exponent of `{self}` must be a natural number literal, got {n!r}")
+        if n > MAX_EXPONENT:  # x^(10^11) is no model, and expanding it takes hours
+            raise ModelError(f"exponent {n:,} of `{self}` is larger than the {MAX_EXPONENT:,} supported; "
+                             "write the model with smaller powers")
         return Node("^", (term(self)._num(),), _arith_sort((self,)), n)
 
     # ---- comparisons build formulas

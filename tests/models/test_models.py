@@ -144,3 +144,9 @@ def test_a_collection_argument_given_one_bare_item_names_the_argument(argument, 
 def test_operators_outside_the_arithmetic_are_one_model_error(build):
     with pytest.raises(ModelError, match="not part of the models' arithmetic"):
         build()
+
+
+def test_a_huge_exponent_is_a_model_error():
+    with pytest.raises(ModelError, match="larger than the 10,000 supported"):
+        x ** 99_999_999_999
+    assert (x ** 10_000).payload == 10_000
