@@ -340,6 +340,9 @@ def check_well_formed(t: Theorem) -> None:
     where = f"theorem {t.name}"
     if not isinstance(t.name, str) or not t.name:
         raise ModelError("a theorem needs a non-empty name")
+    if not t.name.isprintable():  # it names files, reports and the generated code's comments
+        raise ModelError(f"theorem name {t.name!r}: use printable characters on one line "
+                         "(no newline, tab or control character)")
     if not isinstance(t.program, Program):
         raise ModelError(f"{where}: program is not a hybrid program")
     _check_program_shape(t.program, where)
@@ -403,6 +406,11 @@ def _check_program_shape(program: Program, where: str) -> None:
     stack = [program]
     while stack:
         p = stack.pop()
+        labels = p.labels if isinstance(p, Choice) else (p.label,) if isinstance(p, Loop) else ()
+        for label in labels:
+            if not isinstance(label, str) or not label.isprintable():
+                raise ModelError(f"{where}: the label {label!r} must be printable text on one line "
+                                 "(it names proof paths and comments in the generated code)")
         parts = p.parts if isinstance(p, Seq) else p.alternatives if isinstance(p, Choice) else None
         if parts is not None and not parts:
             kind = "sequence" if isinstance(p, Seq) else "choice"

@@ -163,3 +163,39 @@ def test_any_model_name_gives_c_identifiers_and_short_file_names(model_name, tmp
     files = extract_c(Theorem(model_name, t.assumptions, t.program, t.guarantee))
     assert all(len(name) <= 64 and (name[0].isalpha() or name[0] == "_") for name in files)
     assert _compiles_as_a_user_types_it(files, tmp_path) == ""
+
+
+ODD_NAMES = ['drone"""v2', "a\\N{x}", "ends */ here", "tri??/graph", 'say "hi"', "brace {x}", "höhe"]
+
+
+@pytest.mark.parametrize("model_name", ODD_NAMES)
+def test_model_names_and_descriptions_with_quotes_backslashes_and_comment_ends(model_name, tmp_path):
+    """The model's name and description stand in the generated docstrings, C comments and the
+    header's MODEL string: `\"\"\"`, a backslash, `*/` or a trigraph there broke the Python (refused)
+    and the C (refused by the compile check, exit 1); they are escaped, and MODEL is the name."""
+    t = _model(["p", "g", "s", "e", "d", "m", "a"])
+    t = Theorem(model_name, t.assumptions, t.program, t.guarantee, description=model_name)
+    for source in (extract(t), monitors(t)):
+        ns: dict = {}
+        exec(compile(source, "<extracted>", "exec"), ns)
+        assert ns["MODEL"] == model_name
+    if compiler() is None:
+        return
+    files = extract_c(t)
+    assert _compiles_as_a_user_types_it(files, tmp_path) == ""
+    header = next(name for name in files if name.endswith(".h"))
+    macro = header[:-2].upper() + "_MODEL"
+    (tmp_path / "show.c").write_text(f'#include <stdio.h>\n#include "{header}"\n'
+                                     f'int main(void) {{ fputs({macro}, stdout); return 0; }}\n')
+    subprocess.run([compiler(), "show.c", "-o", "show"], cwd=tmp_path, check=True)
+    shown = subprocess.run(["./show"], cwd=tmp_path, capture_output=True, check=True).stdout
+    assert shown.decode("utf-8") == model_name
+
+
+@pytest.mark.parametrize("model_name", ["a\nb", "tab\there", "nul\x00"])
+def test_a_model_name_that_is_not_one_printable_line_is_refused(model_name):
+    from certiloop.models import ModelError
+
+    t = _model(["p", "g", "s", "e", "d", "m", "a"])
+    with pytest.raises(ModelError, match="printable characters on one line"):
+        Theorem(model_name, t.assumptions, t.program, t.guarantee)
