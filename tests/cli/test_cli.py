@@ -88,6 +88,7 @@ def test_smtlib_names_archive_entries_with_slashes_and_colons(tmp_path):
     (["gate", "sbs.ctrl1", "--jobs", "100000"], "--jobs must be at most"),
     (["falsify", "sbs.ctrl1", "--jobs", "100000"], "--jobs must be at most"),
     (["falsify", "sbs.ctrl1", "--seed", "-1"], "--seed must be a non-negative integer"),
+    (["prove", ":MODEL"], "':MODEL' names no file"),  # was " is a folder: ..., as /FILE.py:THEOREM"
     (["prove"], "the following arguments are required"),
     (["frobnicate"], "invalid choice"),
 ])
