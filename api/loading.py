@@ -119,6 +119,8 @@ def load(spec: str) -> Theorem:
 
 def _from_file(path_text: str, attr: str) -> Theorem:
     path = Path(path_text)
+    if not path_text:
+        raise ModelError(f"':{attr}' names no file: write the model as path/to/file.py:{attr or 'THEOREM'}")
     if path.is_dir():
         raise ModelError(f"{path_text} is a folder: name a Python file in it, as {path_text}/FILE.py:THEOREM")
     if not path.is_file():

@@ -61,14 +61,25 @@ def narrowest(out, table) -> int:
     return Measurement.get(out, out.options, table).minimum
 
 
+MAX_TIMEOUT_S = 10**6  # a wall-clock safety net beyond this is none (and overflows as milliseconds)
+MAX_JOBS = 256  # worker processes: more would only exhaust the machine
+
+
 def check_common(args: argparse.Namespace) -> None:
-    if args.timeout <= 0:
-        raise BadInput(f"--timeout must be positive, got {args.timeout:g}")
+    if not 0 < args.timeout <= MAX_TIMEOUT_S:  # NaN fails this too
+        raise BadInput(f"--timeout must be a positive number of seconds up to {MAX_TIMEOUT_S:,}, "
+                       f"got {args.timeout:g}")
     if args.rlimit < 1:
         raise BadInput(f"--rlimit must be at least 1, got {args.rlimit}")
-    if args.jobs is not None and args.jobs < 1:
-        raise BadInput(f"--jobs must be at least 1, got {args.jobs}")
+    check_jobs(args.jobs)
     need_cvc5(args)
+
+
+def check_jobs(jobs: int | None) -> None:
+    if jobs is not None and jobs < 1:
+        raise BadInput(f"--jobs must be at least 1, got {jobs}")
+    if jobs is not None and jobs > MAX_JOBS:
+        raise BadInput(f"--jobs must be at most {MAX_JOBS} (one process each), got {jobs}")
 
 
 def check_outputs(*outputs: tuple[str, str | None, str]) -> None:

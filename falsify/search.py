@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import hashlib
 import math
+import sys
 import time
 from collections import Counter
 from contextlib import contextmanager
@@ -268,7 +269,13 @@ def _search(theorem: Theorem, opts: Options, examples: int, recording: bool = Fa
     confirmed: list[_Found] = []  # the first run the exact (or validated) replay confirmed
     floats: list[_Found] = []  # the first run only floating point shows violating
 
+    outer_limit = sys.getrecursionlimit()  # the command's (deep stack): hypothesis lowers it per example
+
     def one_run(data) -> None:
+        with _recursion_limit_at_least(outer_limit):
+            one_example(data)
+
+    def one_example(data) -> None:
         count["examples"] += 1
         chooser = Recording(HypothesisChooser(data))
         try:
@@ -371,6 +378,20 @@ def shrunk(theorem: Theorem, opts: Options, found: Falsification) -> Falsificati
     return Falsification(found.model, True, found.examples, found.seconds, last["run"], EXACT, script,
                          phase=found.phase, initial=initial,
                          shrunk=script != found.script or initial != found.initial)
+
+
+@contextmanager
+def _recursion_limit_at_least(limit: int):
+    """Hypothesis sets the recursion limit to its caller's depth + 2,000 around each example,
+    far below the limit the command's deep stack allows (`deepstack.py`): a guarantee nested
+    2,000 deep, evaluated recursively, stopped with a RecursionError. The limit the search
+    started with holds inside the example, and hypothesis's own is back after it."""
+    inside = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(inside, limit))
+    try:
+        yield
+    finally:
+        sys.setrecursionlimit(inside)
 
 
 @contextmanager

@@ -62,8 +62,9 @@ def check_falsify_args(args: argparse.Namespace) -> None:
         raise BadInput(f"--max-family must be at least 1, got {args.max_family}")
     if args.steps < 1:
         raise BadInput(f"--steps must be at least 1, got {args.steps}")
-    if args.jobs is not None and args.jobs < 1:
-        raise BadInput(f"--jobs must be at least 1, got {args.jobs}")
+    options.check_jobs(args.jobs)
+    if args.seed < 0:
+        raise BadInput(f"--seed must be a non-negative integer, got {args.seed}")
     if args.plot and not args.plot.lower().endswith(".png"):
         raise BadInput(f"--plot writes a PNG file; give a name ending in .png, not {args.plot!r}")
     database = None if args.database.lower() == "none" else args.database

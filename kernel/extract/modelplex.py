@@ -80,6 +80,7 @@ from certiloop.kernel.extract.monitor_terms import (
 )
 from certiloop.kernel.extract.scalar import KIT, STEP, Python
 from certiloop.kernel.extract.shapes import latched_scalars
+from certiloop.kernel.extract.template import doc_text
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, And, ModelError, Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -99,7 +100,7 @@ import types
 
 import numpy as np
 
-MODEL = {model!r}
+MODEL = {model_name!r}
 MODEL_HASH = {hash!r}  # the model's content hash when this code was generated
 STATE = {state!r}
 COMMAND = {command!r}
@@ -134,7 +135,8 @@ def _monitors(theorem: Theorem) -> str:
         if not message.startswith(f"{theorem.name}:"):
             message = f"{theorem.name}: {message}"
         raise (MonitorError if isinstance(exc, MonitorError) else ExtractError)(message) from None
-    src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
+    src = HEADER.format(model=doc_text(theorem.name), model_name=theorem.name,
+                        description=doc_text(theorem.description), hash=theorem.content_hash,
                         state=state, command=command, plant_state=plant_state, plant_params=plant_params,
                         plant_how=plant_how, environment_doc=ENVIRONMENT_DOC if env_code else "",
                         environment_header=env_header)

@@ -40,7 +40,20 @@ C_LIBRARY = {
     "j1", "jn", "gamma", "signgam", "drem", "finite", "significand", "unix", "linux", "i386", "asm",
     "typeof", "_Bool", "_Complex", "_Imaginary", "_Alignas", "_Alignof", "_Atomic", "_Generic",
     "_Noreturn", "_Static_assert", "_Thread_local", "restrict", "inline",
+    # object-like macros of the C libraries' <math.h> outside their own families below (glibc in
+    # its default GNU mode, BSD/macOS and the old System V interface)
+    "HUGE", "MAXFLOAT", "DOMAIN", "SING", "OVERFLOW", "UNDERFLOW", "TLOSS", "PLOSS", "X_TLOSS",
+    "FLT_EVAL_METHOD", "DECIMAL_DIG",
 }
+# The macro families <math.h>, <stddef.h> and <stdint.h> define (in the compiler's default GNU
+# mode too, where `cc -Wall -Wextra -Werror -pedantic` compiles the file: M_SQRT2, INT8_MAX,
+# FP_ILOGB0, ...), the types <stdint.h> names, and the `is...` classification macros: a model
+# symbol of such a form would be replaced by the preprocessor, so it is renamed whether or not
+# this platform's headers define it.
+C_MACRO_FAMILY = re.compile(
+    r"M_\w+|FP_\w+|MATH_\w+|HUGE_\w+|FLT_\w+|DBL_\w+|LDBL_\w+"
+    r"|(?:U?INT\w*|PTRDIFF|SIZE|SIG_ATOMIC|WCHAR|WINT)_(?:MAX|MIN|WIDTH|C)"
+    r"|u?int(?:_least|_fast)?\d+_t|u?int(?:max|ptr)_t|float_t|double_t|is[a-z]\w*")
 
 
 def _python_unsafe(name: str, reserved: set[str]) -> bool:
@@ -65,6 +78,7 @@ def c_unsafe(name: str, base: str) -> bool:
     from certiloop.kernel.extract.c.syntax import C_RESERVED
 
     return (name in C_RESERVED - {"i", "j"} or name in C_LIBRARY or name in _c_generated() - {"i", "j"}
+            or C_MACRO_FAMILY.fullmatch(name) is not None
             or name in ("rc", "careful") or re.fullmatch(r"c\d+", name) is not None  # cl_c0: a choice's flag
             or name.startswith(("_", PREFIX, "cl_", "CL_", "out_", "n_", f"{base}_", f"{base.upper()}_"))
             or _python_unsafe(name, set()) or not re.fullmatch(r"[A-Za-z_]\w*", name))

@@ -22,7 +22,16 @@ from certiloop.kernel.extract.analysis import (
 from certiloop.kernel.extract.errors import ExtractError, brief, refuse
 from certiloop.kernel.extract.roots import Root, solutions
 from certiloop.kernel.extract.shapes import elementwise, is_annotation, latched_scalars, pins_first
-from certiloop.kernel.extract.template import ENTRY, HEADER, RESERVED, SCALAR, check_names, choice_tag, power
+from certiloop.kernel.extract.template import (
+    ENTRY,
+    HEADER,
+    RESERVED,
+    SCALAR,
+    check_names,
+    choice_tag,
+    doc_text,
+    power,
+)
 from certiloop.models.lang.programs import ODE, Assign, Choice, Havoc, Loop, Program, Seq, Test, written
 from certiloop.models.lang.terms import BOOL, INT, REAL, Node, Var, free_vars
 from certiloop.models.lang.theorem import Theorem
@@ -544,7 +553,8 @@ def python(theorem: Theorem, step: "Step") -> str:
     imports = "import numpy as np\n\nfrom certiloop.kernel import decide as _decide"
     if any(sort(v) == INT for v in scalars):
         imports = "import operator\n\n" + imports
-    src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
+    src = HEADER.format(model=doc_text(theorem.name), model_name=theorem.name,
+                        description=doc_text(theorem.description), hash=theorem.content_hash,
                         inputs=scalars, families=arrays, what=what, how=SCALAR[step.where], imports=imports)
     src += f"\n\ndef {ENTRY}({', '.join(params)}):\n"
     admitted = not rates and all(v in py.inputs for v in outputs)

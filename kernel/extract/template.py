@@ -20,11 +20,18 @@ The verified {what} of `{model}` ({description}),
 
 {imports}
 
-MODEL = {model!r}
+MODEL = {model_name!r}
 MODEL_HASH = {hash!r}  # the model's content hash when this code was extracted
 INPUTS = {inputs!r}
 FAMILIES = {families!r}
 '''
+
+def doc_text(text: str) -> str:
+    """A model's name or description as it may stand inside the generated docstring: printable,
+    its backslashes and double quotes escaped (`a\\N`, `\"\"\"` would end or break it)."""
+    printable = "".join(ch if ch.isprintable() else " " for ch in text)
+    return printable.replace("\\", "\\\\").replace('"', '\\"')
+
 
 VECTORISED = ("vectorised over the family of boundaries. Every line comes from the model's syntax tree;\n"
               "comments name the model's branch labels.")

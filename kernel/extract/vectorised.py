@@ -13,7 +13,15 @@ from certiloop.kernel.extract import certified
 from certiloop.kernel.extract.analysis import Step, conjuncts, is_index_sort, mentions, sort_of, step_outputs
 from certiloop.kernel.extract.errors import ExtractError, brief, refuse
 from certiloop.kernel.extract.roots import solve
-from certiloop.kernel.extract.template import ENTRY, HEADER, VECTORISED, check_names, choice_tag, power
+from certiloop.kernel.extract.template import (
+    ENTRY,
+    HEADER,
+    VECTORISED,
+    check_names,
+    choice_tag,
+    doc_text,
+    power,
+)
 from certiloop.models.lang.programs import Assign, Choice, Havoc, Loop, Program, Seq, Test
 from certiloop.models.lang.terms import BOOL, REAL, Node
 from certiloop.models.lang.theorem import Theorem
@@ -466,7 +474,8 @@ def vectorised_source(theorem: Theorem, step: "Step") -> str:
     families = list(em.families)
     check_names(theorem, [*params, *families, *assigned], vectorised=True)
     imports = f"{certified.IMPORT_EXACT}\n\nimport numpy as np\n\n{certified.IMPORT}"
-    src = HEADER.format(model=theorem.name, description=theorem.description, hash=theorem.content_hash,
+    src = HEADER.format(model=doc_text(theorem.name), model_name=theorem.name,
+                        description=doc_text(theorem.description), hash=theorem.content_hash,
                         inputs=params, families=families, what="discrete controller", how=VECTORISED,
                         imports=imports)
     args = ", ".join([*params, *families])

@@ -40,6 +40,7 @@ from certiloop.models.lang.programs import (
 from certiloop.models.lang.terms import (
     BOOL,
     FALSE,
+    MAX_EXPONENT,
     TRUE,
     And,
     Box,
@@ -316,7 +317,13 @@ class Builder:
         base = self._num(t.children[0], env)
         exponent = self._num(t.children[1], env)
         if exponent.op == "^" and exponent.args[0].op == "const":  # 2^3 in x^2^3: a number
+            if abs(exponent.args[0].payload) > 1 and exponent.payload > MAX_EXPONENT:
+                raise self.fail(t.children[1], f"the exponent `{self.shown(exponent)}` is larger than the "
+                                f"{MAX_EXPONENT:,} supported")
             exponent = const(exponent.args[0].payload ** exponent.payload)
+        if exponent.op == "const" and abs(exponent.payload) > MAX_EXPONENT:  # x^(10^11): hours to expand
+            raise self.fail(t.children[1], f"the exponent `{self.shown(exponent)}` is larger than the "
+                            f"{MAX_EXPONENT:,} supported")
         if exponent.op == "const" and exponent.payload.denominator == 2:  # x^(k/2) = x^((k-1)/2)*sqrt(x)
             k = exponent.payload.numerator
             if k < 0 and number(base) == 0:
@@ -328,6 +335,7 @@ class Builder:
         if exponent.op != "const" or exponent.payload.denominator != 1:
             raise self.fail(t.children[1], f"exponent `{self.shown(exponent)}` is not supported: only "
                             "integer literals and halves (square roots)")
+
         if exponent.payload >= 0:
             return base ** int(exponent.payload)
         # x^-n is 1/x^n, a division: defined only where x != 0, which the claim's

@@ -224,6 +224,8 @@ def seq(*parts: Program) -> Program:
         if not isinstance(p, Program):
             raise ModelError(f"expected a hybrid program in a sequence, got {p!r}")
         flat.extend(p.parts if isinstance(p, Seq) else (p,))
+    if not flat:
+        return skip()  # the empty sequence does nothing
     return flat[0] if len(flat) == 1 else Seq(tuple(flat))
 
 
@@ -248,6 +250,9 @@ def choice(*alternatives: Program | tuple[str, Program]) -> Choice:
             continue
         progs.append(prog)
         labels.append(label or f"branch {len(labels) + 1}")
+    if not progs:
+        raise ModelError("a choice needs at least one alternative (a choice of none has no run at all; "
+                         "write test(FALSE) for that, or skip() for a step that does nothing)")
     if len(set(labels)) != len(labels):
         labels = [f"{lab} #{i}" for i, lab in enumerate(labels, 1)]
     return Choice(tuple(progs), tuple(labels))
@@ -258,6 +263,8 @@ def loop(body: Program, invariant: Any = None, label: str = "loop") -> Loop:
     `invariant` that holds initially, is kept by body and implies the guarantee; without
     one it uses the guarantee. `label` names the loop in proof paths:
     `loop(seq(ctrl, plant), invariant=v**2 <= 2*b*(m - p), label="control loop")`."""
+    if not isinstance(body, Program):
+        raise ModelError(f"expected a hybrid program as the body of a loop, got {body!r}")
     inv = formula(invariant) if invariant is not None else None
     return Loop(body, inv, label)
 

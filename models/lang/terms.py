@@ -14,6 +14,8 @@ from typing import Any, Iterable
 
 from certiloop.models.lang.printing import show
 
+MAX_EXPONENT = 10_000  # the largest natural exponent of a power in a model
+
 
 class ModelError(ValueError):
     """A model is ill-formed; the message names the place and the fix. Raised when a term,
@@ -168,6 +170,16 @@ class Node:
     __float__ = __int__ = __index__ = __complex__ = _not_a_number
     __round__ = __trunc__ = __floor__ = __ceil__ = __abs__ = _not_a_number
 
+    def _no_operator(self, *_args) -> Any:
+        """x % 2, x // 2, 2 ** x, x @ y: operators the models' arithmetic does not have."""
+        raise ModelError(
+            f"`{self}` is a model term: %, //, divmod, @ and a symbolic exponent (2 ** x) are not "
+            "part of the models' arithmetic; use +, -, *, / (real division) and ** with a natural "
+            "number literal as the exponent")
+
+    __mod__ = __rmod__ = __floordiv__ = __rfloordiv__ = __divmod__ = __rdivmod__ = _no_operator
+    __matmul__ = __rmatmul__ = __rpow__ = _no_operator
+
     def __str__(self) -> str:
         return show(self)
 
@@ -223,6 +235,9 @@ class Node:
     def __pow__(self, n):
         if not isinstance(n, int) or isinstance(n, bool) or n < 0:
             raise ModelError(f"exponent of `{self}` must be a natural number literal, got {n!r}")
+        if n > MAX_EXPONENT:  # x^(10^11) is no model, and expanding it takes hours
+            raise ModelError(f"exponent {n:,} of `{self}` is larger than the {MAX_EXPONENT:,} supported; "
+                             "write the model with smaller powers")
         return Node("^", (term(self)._num(),), _arith_sort((self,)), n)
 
     # ---- comparisons build formulas

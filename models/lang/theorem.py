@@ -12,9 +12,11 @@ from certiloop.models.lang.printing import show, show_program
 from certiloop.models.lang.programs import (
     ODE,
     Assign,
+    Choice,
     Havoc,
     Loop,
     Program,
+    Seq,
     Test,
     children,
     program_symbols,
@@ -108,6 +110,7 @@ class Theorem:
     def __post_init__(self) -> None:
         if self.expected not in VERDICTS:
             raise ModelError(f"theorem {self.name}: expected must be one of {VERDICTS}")
+        _check_collections(self)
         object.__setattr__(self, "assumptions", formula(self.assumptions))
         object.__setattr__(self, "guarantee", formula(self.guarantee))
         object.__setattr__(self, "scenarios", tuple(formula(s) for s in self.scenarios))
@@ -337,8 +340,12 @@ def check_well_formed(t: Theorem) -> None:
     where = f"theorem {t.name}"
     if not isinstance(t.name, str) or not t.name:
         raise ModelError("a theorem needs a non-empty name")
+    if not t.name.isprintable():  # it names files, reports and the generated code's comments
+        raise ModelError(f"theorem name {t.name!r}: use printable characters on one line "
+                         "(no newline, tab or control character)")
     if not isinstance(t.program, Program):
         raise ModelError(f"{where}: program is not a hybrid program")
+    _check_program_shape(t.program, where)
     for nm, val in t.abbreviations.items():
         if not isinstance(val, Node) or val.sort == BOOL:
             raise ModelError(f"{where}: abbreviation {nm} must be a term")
@@ -370,6 +377,50 @@ def check_well_formed(t: Theorem) -> None:
             raise ModelError(f"{where}: `{c.payload}` is declared constant but the program assigns to it")
     _check_quantifier_sorts(t.guarantee, where)
     _check_quantifier_sorts(t.assumptions, where)
+
+
+_COLLECTIONS = {  # argument: (how its items look, whether each is a (name, value) pair)
+    "constants": ("symbols, e.g. constants=(A, b)", False),
+    "scenarios": ("formulas, e.g. scenarios=(G == 1,)", False),
+    "well_defined": ('(what, formula) pairs, e.g. well_defined=(("sqrt of g", g >= 0),)', True),
+    "defined_if": ('(what, formula) pairs, e.g. defined_if=(("sqrt of a", a >= 0),)', True),
+    "witnesses": ('(variable, term) pairs, e.g. witnesses=(("del", eps),)', True),
+    "ghosts": ('(name, formula) pairs, e.g. ghosts=(("l", l >= 0),)', True),
+}
+
+
+def _check_collections(t: Theorem) -> None:
+    """The arguments that hold several items are tuples or lists of the right items (a bare
+    formula or symbol is one item the user forgot to wrap, not a collection)."""
+    for argument, (items, pairs) in _COLLECTIONS.items():
+        value = getattr(t, argument)
+        wrong = isinstance(value, Node) or not isinstance(value, (tuple, list)) or (
+            pairs and not all(isinstance(v, (tuple, list)) and len(v) == 2 for v in value))
+        if wrong:
+            raise ModelError(f"theorem {t.name}: {argument} must be a tuple of {items}, got {value!r}")
+
+
+def _check_program_shape(program: Program, where: str) -> None:
+    """Every part of the program is a program, and no sequence or choice is empty (what the
+    constructors ensure, checked for programs built from the classes directly)."""
+    stack = [program]
+    while stack:
+        p = stack.pop()
+        labels = p.labels if isinstance(p, Choice) else (p.label,) if isinstance(p, Loop) else ()
+        for label in labels:
+            if not isinstance(label, str) or not label.isprintable():
+                raise ModelError(f"{where}: the label {label!r} must be printable text on one line "
+                                 "(it names proof paths and comments in the generated code)")
+        parts = p.parts if isinstance(p, Seq) else p.alternatives if isinstance(p, Choice) else None
+        if parts is not None and not parts:
+            kind = "sequence" if isinstance(p, Seq) else "choice"
+            raise ModelError(f"{where}: an empty {kind} in the program "
+                             "(use skip() for a step that does nothing)")
+        for child in children(p):
+            if not isinstance(child, Program):
+                raise ModelError(f"{where}: expected a hybrid program inside {type(p).__name__}, "
+                                 f"got {child!r}")
+            stack.append(child)
 
 
 def _written_in_modalities(n: Node) -> set[str]:

@@ -5,17 +5,19 @@ so `prove` reports it ("vacuous: ...", exit 1) unless the user allows it.
 Both checks are proofs, never guesses: the assumptions are unsatisfiable when z3 proves their
 negation valid; the first control step blocks every run when `A -> [prefix; body] false` has
 every obligation proved (prefix: what runs before the program's first loop, body: that loop's
-body; a loop-free program is checked whole). A flow there is read as its run of duration 0, the
-test of its domain: a flow has a run from a state exactly when its domain holds there, so this
-changes nothing about blocking and keeps the check to the control step's arithmetic. A check
-that is not proved leaves the proof standing: this can only add a warning, never take one away."""
+body; a loop-free program is checked whole). A flow that nothing after it in the step can block
+is read as its run of duration 0, the test of its domain: a flow has a run from a state exactly
+when its domain holds there, so this changes nothing about blocking and keeps the check to the
+control step's arithmetic. A flow followed by a test (`{t' = 1 & t <= eps}; ?t = eps`) stays a
+flow: its longer runs may pass the test where the run of duration 0 does not. A check that is
+not proved leaves the proof standing: this can only add a warning, never take one away."""
 
 from __future__ import annotations
 
-from dataclasses import fields, replace
+from dataclasses import replace
 
 from certiloop.models.lang.printing import show
-from certiloop.models.lang.programs import ODE, Loop, Program, Seq, Test, seq
+from certiloop.models.lang.programs import ODE, Choice, Loop, Program, Seq, Test, children, seq
 from certiloop.models.lang.terms import FALSE, MODALITIES, ModelError, Node, Not
 from certiloop.models.lang.theorem import Theorem
 from certiloop.proofs.core.solver import check_valid
@@ -42,18 +44,35 @@ def first_step(program: Program) -> Program | None:
     return program
 
 
-def zero_duration(program: Program) -> Program:
-    """The program with every flow replaced by the test of its domain (its run of duration 0)."""
+def zero_duration(program: Program, blocks_after: bool = False) -> Program:
+    """The program with every flow that nothing after it can block (`blocks_after`: what runs
+    after `program` may) replaced by the test of its domain (its run of duration 0)."""
     if isinstance(program, ODE):
-        return Test(program.domain)
-    changes = {}
-    for f in fields(program):
-        value = getattr(program, f.name)
-        if isinstance(value, Program):
-            changes[f.name] = zero_duration(value)
-        elif isinstance(value, tuple) and value and all(isinstance(v, Program) for v in value):
-            changes[f.name] = tuple(zero_duration(v) for v in value)
-    return replace(program, **changes) if changes else program
+        return program if blocks_after else Test(program.domain)
+    if isinstance(program, Seq):
+        parts, after = [], blocks_after
+        for part in reversed(program.parts):
+            parts.append(zero_duration(part, after))
+            after = after or may_block(part)
+        return replace(program, parts=tuple(reversed(parts)))
+    if isinstance(program, Loop):  # an iteration is followed by the next one
+        return replace(program, body=zero_duration(program.body, blocks_after or may_block(program.body)))
+    if isinstance(program, Choice):
+        alternatives = tuple(zero_duration(a, blocks_after) for a in program.alternatives)
+        return replace(program, alternatives=alternatives)
+    return program
+
+
+def may_block(program: Program) -> bool:
+    """Can a run of the program stop short from some state: it holds a test, or a flow with an
+    evolution domain (over-approximated: a test inside a loop counts too)."""
+    stack = [program]
+    while stack:
+        p = stack.pop()
+        if isinstance(p, Test) or (isinstance(p, ODE) and p.domain.op != "true"):
+            return True
+        stack.extend(children(p))
+    return False
 
 
 def has_modality(f: Node) -> bool:

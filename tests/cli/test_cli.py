@@ -78,8 +78,17 @@ def test_smtlib_names_archive_entries_with_slashes_and_colons(tmp_path):
 @pytest.mark.parametrize("args, message", [
     (["prove", "sbs.nope"], "unknown model 'sbs.nope'"),
     (["prove", "missing.py:thm"], "missing.py: no such file"),
-    (["prove", "sbs.ctrl1", "--timeout", "0"], "--timeout must be positive"),
+    (["prove", "sbs.ctrl1", "--timeout", "0"], "--timeout must be a positive number"),
     (["prove", "sbs.ctrl1", "--jobs", "0"], "--jobs must be at least 1"),
+    # values that used to reach the engine: "internal error" (NaN, inf as milliseconds, numpy's
+    # seed) or one process per job
+    (["prove", "sbs.ctrl1", "--timeout", "nan"], "--timeout must be a positive number"),
+    (["prove", "sbs.ctrl1", "--timeout", "inf"], "--timeout must be a positive number"),
+    (["prove", "sbs.ctrl1", "--timeout", "1e308"], "--timeout must be a positive number"),
+    (["gate", "sbs.ctrl1", "--jobs", "100000"], "--jobs must be at most"),
+    (["falsify", "sbs.ctrl1", "--jobs", "100000"], "--jobs must be at most"),
+    (["falsify", "sbs.ctrl1", "--seed", "-1"], "--seed must be a non-negative integer"),
+    (["prove", ":MODEL"], "':MODEL' names no file"),  # was " is a folder: ..., as /FILE.py:THEOREM"
     (["prove"], "the following arguments are required"),
     (["frobnicate"], "invalid choice"),
 ])

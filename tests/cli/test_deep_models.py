@@ -62,6 +62,30 @@ def _falsify(tmp_path, n: int, capsys) -> None:
     assert -n <= docs["unsafe"]["counterexample"]["trace"][-1]["state"]["x"] < 0  # x0 - n, 0 <= x0 < n
 
 
+def _falsify_deep_guarantee(tmp_path, depth: int, capsys) -> None:
+    """A guarantee of 2*depth negations (an even number: the formula inside, by hand) is
+    evaluated on every example; hypothesis lowers the recursion limit to its depth + 2,000
+    around each one, which stopped it with a RecursionError (exit 2)."""
+    negated = "!(" * (2 * depth)
+    closing = ")" * (2 * depth)
+    kyx = tmp_path / "deep_guarantee.kyx"
+    kyx.write_text(_archive("safe", f"x >= 0 -> [x := x + 1;] {negated}x >= 1{closing}")
+                   + _archive("unsafe", f"x >= 0 -> [x := x - 1;] {negated}x >= 0{closing}"))
+    out = tmp_path / "deep_guarantee.json"
+    code = main(["falsify", str(kyx), "-q", "--max-examples", "10", "--database", "none", "--jobs", "1",
+                 "--json", str(out)])
+    capsys.readouterr()
+    docs = {d["model"]: d for d in json.loads(out.read_text())}
+    assert code == 1
+    assert docs["safe"]["counterexample"] is None
+    assert docs["unsafe"]["verdict"] == "refuted"
+    assert -1 <= docs["unsafe"]["counterexample"]["trace"][-1]["state"]["x"] < 0  # x0 - 1, 0 <= x0 < 1
+
+
+def test_falsify_evaluates_a_guarantee_nested_past_hypothesis_limit(tmp_path, capsys):
+    _falsify_deep_guarantee(tmp_path, 1_200, capsys)
+
+
 def _export_and_list(tmp_path, n: int, depth: int, capsys) -> None:
     problems = _problems(n, depth)
     kyx = tmp_path / "deep.kyx"

@@ -128,3 +128,74 @@ def test_cli_extract_c_with_t_and_lower_compiles(tmp_path, monkeypatch):
     built = subprocess.run([compiler(), "-std=c11", "-Wall", "-Wextra", "-Werror", "-pedantic", "-c",
                             source.name, "-o", "k.o"], cwd=out, capture_output=True, text=True)
     assert built.returncode == 0 and not built.stderr, built.stderr
+
+
+MACRO_NAMES = ["M_SQRT2", "M_LN2", "INT8_MAX", "SIZE_MAX", "FP_ILOGB0", "MAXFLOAT", "HUGE", "DBL_MAX",
+               "UINT64_C", "WCHAR_MAX", "isless", "math_errhandling", "unix", "M_PI_2"]
+MACRO_SETS = [(MACRO_NAMES * 2)[i:i + 7] for i in range(0, len(MACRO_NAMES), 7)]
+
+
+def _compiles_as_a_user_types_it(files: dict, folder) -> str:
+    """The compiler's diagnostics under `cc -Wall -Wextra -Werror -pedantic` (its default GNU
+    mode, where <math.h> defines M_SQRT2 and more), "" where it compiles cleanly."""
+    for name, text in files.items():
+        (folder / name).write_text(text)
+    source = next(name for name in files if name.endswith(".c"))
+    done = subprocess.run([compiler(), "-Wall", "-Wextra", "-Werror", "-pedantic", "-c", source, "-o", "k.o"],
+                          cwd=folder, capture_output=True, text=True)
+    return done.stderr if done.returncode or done.stderr.strip() else ""
+
+
+@pytest.mark.skipif(compiler() is None, reason="no C compiler")
+@pytest.mark.parametrize("names", MACRO_SETS, ids=["-".join(s) for s in MACRO_SETS])
+def test_c_library_macro_names_compile_in_the_compilers_default_mode(names, tmp_path):
+    """Symbols named like the macros <math.h>/<stdint.h> define (in GNU mode only, some of them)
+    are renamed: the C compiles as the user compiles it, not only under -std=c99."""
+    files = extract_c(_model(names))
+    assert compile_error(files) is None
+    assert _compiles_as_a_user_types_it(files, tmp_path) == ""
+
+
+@pytest.mark.skipif(compiler() is None, reason="no C compiler")
+@pytest.mark.parametrize("model_name", ["2fast", "x" * 300, "drone.v2-final"])
+def test_any_model_name_gives_c_identifiers_and_short_file_names(model_name, tmp_path):
+    t = _model(["p", "g", "s", "e", "d", "m", "a"])
+    files = extract_c(Theorem(model_name, t.assumptions, t.program, t.guarantee))
+    assert all(len(name) <= 64 and (name[0].isalpha() or name[0] == "_") for name in files)
+    assert _compiles_as_a_user_types_it(files, tmp_path) == ""
+
+
+ODD_NAMES = ['drone"""v2', "a\\N{x}", "ends */ here", "tri??/graph", 'say "hi"', "brace {x}", "höhe"]
+
+
+@pytest.mark.parametrize("model_name", ODD_NAMES)
+def test_model_names_and_descriptions_with_quotes_backslashes_and_comment_ends(model_name, tmp_path):
+    """The model's name and description stand in the generated docstrings, C comments and the
+    header's MODEL string: `\"\"\"`, a backslash, `*/` or a trigraph there broke the Python (refused)
+    and the C (refused by the compile check, exit 1); they are escaped, and MODEL is the name."""
+    t = _model(["p", "g", "s", "e", "d", "m", "a"])
+    t = Theorem(model_name, t.assumptions, t.program, t.guarantee, description=model_name)
+    for source in (extract(t), monitors(t)):
+        ns: dict = {}
+        exec(compile(source, "<extracted>", "exec"), ns)
+        assert ns["MODEL"] == model_name
+    if compiler() is None:
+        return
+    files = extract_c(t)
+    assert _compiles_as_a_user_types_it(files, tmp_path) == ""
+    header = next(name for name in files if name.endswith(".h"))
+    macro = header[:-2].upper() + "_MODEL"
+    (tmp_path / "show.c").write_text(f'#include <stdio.h>\n#include "{header}"\n'
+                                     f'int main(void) {{ fputs({macro}, stdout); return 0; }}\n')
+    subprocess.run([compiler(), "show.c", "-o", "show"], cwd=tmp_path, check=True)
+    shown = subprocess.run(["./show"], cwd=tmp_path, capture_output=True, check=True).stdout
+    assert shown.decode("utf-8") == model_name
+
+
+@pytest.mark.parametrize("model_name", ["a\nb", "tab\there", "nul\x00"])
+def test_a_model_name_that_is_not_one_printable_line_is_refused(model_name):
+    from certiloop.models import ModelError
+
+    t = _model(["p", "g", "s", "e", "d", "m", "a"])
+    with pytest.raises(ModelError, match="printable characters on one line"):
+        Theorem(model_name, t.assumptions, t.program, t.guarantee)

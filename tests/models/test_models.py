@@ -102,3 +102,51 @@ def test_tests_must_be_formulas():
     with pytest.raises(ModelError, match="expected a formula"):
         guard(x + 1)
     assert And(x > 0, y > 0).op == "and"
+
+
+def test_a_choice_of_nothing_is_refused():
+    """`choice()` has no run, so `[choice()] P` held for every P and `prove` called it proved
+    without the vacuity warning (its check generated no obligation)."""
+    from certiloop.models import choice
+
+    with pytest.raises(ModelError, match="at least one alternative"):
+        choice()
+
+
+def test_an_empty_sequence_does_nothing():
+    """`seq()` was an empty Seq that the refuter indexed ("internal error: IndexError")."""
+    from certiloop.models.lang.programs import Test
+
+    assert isinstance(seq(), Test) and seq().cond.op == "true"
+
+
+def test_a_program_with_a_part_that_is_no_program_is_refused():
+    from certiloop.models.lang.programs import Loop, Seq
+
+    with pytest.raises(ModelError, match="body of a loop"):
+        loop(x)
+    with pytest.raises(ModelError, match="inside Loop"):  # the class itself, not the constructor
+        theorem(Loop(x))
+    with pytest.raises(ModelError, match="empty sequence"):
+        theorem(Seq(()))
+
+
+@pytest.mark.parametrize("argument, value", [
+    ("constants", x), ("scenarios", x >= 0), ("well_defined", (x >= 0,)), ("witnesses", ("del", x)),
+    ("ghosts", (("l",),))])
+def test_a_collection_argument_given_one_bare_item_names_the_argument(argument, value):
+    with pytest.raises(ModelError, match=f"{argument} must be a tuple of"):
+        theorem(assign(x, 1), **{argument: value})
+
+
+@pytest.mark.parametrize("build", [lambda: x % 2, lambda: x // 2, lambda: 2 ** x, lambda: divmod(x, 2),
+                                   lambda: 2 % x])
+def test_operators_outside_the_arithmetic_are_one_model_error(build):
+    with pytest.raises(ModelError, match="not part of the models' arithmetic"):
+        build()
+
+
+def test_a_huge_exponent_is_a_model_error():
+    with pytest.raises(ModelError, match="larger than the 10,000 supported"):
+        x ** 99_999_999_999
+    assert (x ** 10_000).payload == 10_000

@@ -31,9 +31,44 @@ C_RESERVED = C_KEYWORDS | {
 }
 
 
+def c_comment_text(text: str) -> str:
+    """A model's name or description as it may stand inside a C comment: one printable line,
+    no `*/` (which would end the comment) and no `??` (a trigraph under -std=c99)."""
+    printable = "".join(ch if ch.isprintable() else " " for ch in text)
+    return printable.replace("*/", "* /").replace("/*", "/ *").replace("??", "? ?")
+
+
+def c_string_text(text: str) -> str:
+    """The text as the body of a C string literal with the same UTF-8 bytes: quotes, backslashes
+    and `?` (trigraphs) escaped, every other byte outside printable ASCII as an octal escape."""
+    out = []
+    for byte in text.encode("utf-8"):
+        ch = chr(byte)
+        if ch in '"\\?':
+            out.append("\\" + ch)
+        elif 32 <= byte < 127:
+            out.append(ch)
+        else:
+            out.append(f"\\{byte:03o}")
+    return "".join(out)
+
+
+C_NAME_LENGTH = 48  # longer model names are cut, with a digest of the whole name kept apart
+
+
 def c_name(model: str) -> str:
-    """sbs.ctrl2 -> sbs_ctrl2: the prefix of every C symbol the model's kernel defines."""
-    return re.sub(r"[^0-9A-Za-z_]", "_", model)
+    """sbs.ctrl2 -> sbs_ctrl2: the prefix of every C symbol the model's kernel defines and the
+    files' name, always an identifier (a leading digit gets `m_`) short enough for any file
+    system (a long name is cut and ends in a digest of the whole name)."""
+    import hashlib
+
+    base = re.sub(r"[^0-9A-Za-z_]", "_", model)
+    if base[:1].isdigit():
+        base = "m_" + base
+    if len(base) > C_NAME_LENGTH:
+        digest = hashlib.sha256(model.encode()).hexdigest()[:10]
+        base = f"{base[:C_NAME_LENGTH - 11]}_{digest}"
+    return base
 
 
 def c_type(sort) -> str:
@@ -80,7 +115,7 @@ def without_dead(lines: list[str], keep: set[str]) -> list[str]:
 
 
 def c_comment(text: str) -> str:
-    return "/* " + text.replace("*/", "* /").replace("/*", "/ *") + " */"
+    return "/* " + c_comment_text(text) + " */"
 
 
 def check_c_names(model: str, names) -> None:
@@ -106,7 +141,7 @@ HEADER_H = """\
 
 #include <stddef.h>
 
-#define {upper}_MODEL "{model}"
+#define {upper}_MODEL "{model_string}"
 #define {upper}_MODEL_HASH "{hash}" /* the model's content hash when this code was extracted */
 #define {upper}_INPUTS "{inputs}"
 #define {upper}_FAMILIES "{families}"

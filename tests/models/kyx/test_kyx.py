@@ -504,3 +504,20 @@ def test_games_and_exercise_blanks_are_named_and_hp_may_be_an_ode(text, message)
         return
     with pytest.raises(KyxError, match=rf"f\.kyx:1:\d+: .*{message}"):
         read_entries(text, "f.kyx")
+
+
+@pytest.mark.parametrize("power, column", [("x^99999999999", 73), ("10^10^10", 74), ("x^(99999999999/2)", 74),
+                                           ("x^-99999999999", 73)])
+def test_a_huge_exponent_is_named_with_its_place(power, column):
+    """x^(10^11) took hours to expand (the prover never answered) and 10^10^10 was computed as
+    a number with ten billion digits while reading; both are refused where they are written."""
+    text = f'ArchiveEntry "p" ProgramVariables Real x; End. Problem x = 1 -> [x := {power};] x > 0 End. End.'
+    (e,) = read_entries(text, "f.kyx")  # the entry is its own "not supported" row, with the reason
+    assert re.search(rf"f\.kyx:1:{column}: the exponent .* is larger than the 10,000 supported", str(e.error))
+
+
+def test_powers_up_to_the_limit_are_read():
+    text = ('ArchiveEntry "p" ProgramVariables Real x; End. '
+            'Problem x = 1 -> [x := x^10000 + 2^-10000;] x > 0 End. End.')
+    (e,) = read_entries(text, "f.kyx")
+    assert e.error is None and e.theorem.program.value.args[0].payload == 10_000

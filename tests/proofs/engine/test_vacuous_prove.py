@@ -99,3 +99,53 @@ def test_a_flow_counts_as_its_run_of_duration_0():
     flow = ode({x: 1}, domain=x <= 5)
     assert zero_duration(seq(assign(y, 0), flow)).key == seq(assign(y, 0), guard(x <= 5)).key
     assert Theorem  # the DSL names used by MODELS exist
+
+
+TIMED = '''
+from certiloop.models import Reals, Theorem, And, assign, loop, ode, seq
+from certiloop.models import test as guard
+x, t, eps = Reals("x t eps")
+# a flow, then a test its longer runs pass: from x = 0, following x' = 1 for 10 s gives x = 10
+after_flow = Theorem(name="after_flow", assumptions=x == 0, program=seq(ode({x: 1}), guard(x >= 10)),
+                     guarantee=x >= 10)
+# time-triggered: each step lasts exactly eps (t = eps after the flow for eps > 0 seconds)
+timed = Theorem(name="timed", assumptions=And(x == 0, eps > 0),
+                program=loop(seq(assign(t, 0), ode({x: 1, t: 1}, t <= eps), guard(t == eps)),
+                             invariant=x >= 0), guarantee=x >= 0)
+# the test after the flow can never pass (x only grows from 0 and must be negative): vacuous
+never = Theorem(name="never", assumptions=x == 0,
+                program=loop(seq(ode({x: 1}), guard(x < 0)), invariant=x >= 0), guarantee=x >= 0)
+'''
+
+
+@pytest.mark.parametrize("name, duration, end_test", [
+    ("after_flow", Fraction(10), lambda x, t: x >= 10),
+    ("timed", Fraction(1), lambda x, t: t == 1)])  # eps = 1
+def test_a_test_after_a_flow_is_passed_by_its_longer_runs(tmp_path, name, duration, end_test, capsys):
+    """The vacuity check read every flow as its run of duration 0, so a test after it that only
+    a longer run passes made `prove` call a model with runs vacuous (exit 1)."""
+    path = tmp_path / "timed_models.py"
+    path.write_text(TIMED)
+    # the witness by hand: x' = 1 (and t' = 1) from x = t = 0 for `duration` seconds passes the test
+    assert end_test(Fraction(0) + duration, Fraction(0) + duration)
+    assert main(["prove", f"{path}:{name}", "-q"]) == 0
+    assert "vacuous" not in capsys.readouterr().err
+
+
+def test_a_test_after_a_flow_that_no_run_passes_is_still_vacuous(tmp_path, capsys):
+    path = tmp_path / "timed_models.py"
+    path.write_text(TIMED)
+    # x = s after s >= 0 seconds, never < 0: no run passes the test
+    assert main(["prove", f"{path}:never", "-q"]) == 1
+    assert "never is vacuous" in capsys.readouterr().err
+
+
+def test_a_flow_with_a_test_after_it_stays_a_flow():
+    from certiloop.models import ode
+    from certiloop.proofs.engine.vacuous import zero_duration
+
+    flow = ode({x: 1}, domain=x <= 5)
+    step = seq(assign(y, 0), flow, guard(x >= 3))
+    assert zero_duration(step).key == step.key
+    body = seq(guard(y >= 0), flow)  # the next iteration's test follows the flow
+    assert zero_duration(loop(body, invariant=x >= 0)).key == loop(body, invariant=x >= 0).key
