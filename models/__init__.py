@@ -9,7 +9,7 @@ from importlib import import_module
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:  # the same names for type checkers, IDEs and the documentation (read statically)
-    from certiloop.models.lang.conveniences import assign_min, for_range, foreach, if_
+    from certiloop.models.lang.conveniences import Ite, assign_min, dot, for_range, foreach, if_
     from certiloop.models.lang.programs import (
         ODE,
         Assign,
@@ -49,7 +49,6 @@ if TYPE_CHECKING:  # the same names for type checkers, IDEs and the documentatio
         IndexSort,
         Int,
         Ints,
-        Ite,
         ModelError,
         Node,
         Not,
@@ -57,7 +56,6 @@ if TYPE_CHECKING:  # the same names for type checkers, IDEs and the documentatio
         Real,
         Reals,
         Var,
-        dot,
     )
     from certiloop.models.lang.theorem import Theorem
 
@@ -66,11 +64,12 @@ _HOME = {
         "ODE", "Assign", "Choice", "Havoc", "Loop", "Program", "Seq", "Test", "assign", "branch",
         "choice", "havoc", "loop", "ode", "seq", "skip", "test",
     ), "certiloop.models.lang.programs"),
-    **dict.fromkeys(("assign_min", "for_range", "foreach", "if_"), "certiloop.models.lang.conveniences"),
+    **dict.fromkeys(("Ite", "assign_min", "dot", "for_range", "foreach", "if_"),
+                    "certiloop.models.lang.conveniences"),
     **dict.fromkeys((
         "BOOL", "FALSE", "INT", "REAL", "TRUE", "And", "Array", "Bool", "Box", "Diamond", "Exists",
-        "Family", "ForAll", "Iff", "Implies", "IndexSort", "Int", "Ints", "Ite", "ModelError",
-        "Node", "Not", "Or", "Real", "Reals", "Var", "dot",
+        "Family", "ForAll", "Iff", "Implies", "IndexSort", "Int", "Ints", "ModelError",
+        "Node", "Not", "Or", "Real", "Reals", "Var",
     ), "certiloop.models.lang.terms"),
     **dict.fromkeys((
         "Roles",

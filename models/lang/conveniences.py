@@ -1,10 +1,11 @@
-"""Conveniences for writing programs: `if_`, `assign_min`, `for_range` and `foreach`, each
-expanding to the core constructs of programs.py, so the prover, the checker and the
-interpreter only ever see those."""
+"""Conveniences for writing models: the statements `if_`, `assign_min`, `for_range` and
+`foreach`, each expanding to the core constructs of programs.py, and the terms `dot` and
+`Ite`, expanding to sums and implications; the prover, the checker and the interpreter only
+ever see the core constructs."""
 
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, Iterable
 
 from certiloop.models.lang.programs import (
     Choice,
@@ -32,8 +33,10 @@ from certiloop.models.lang.terms import (
     Node,
     Not,
     Var,
+    add,
     formula,
     free_vars,
+    mul,
     term,
 )
 
@@ -105,3 +108,18 @@ def foreach(index: Node, done: Node, body: Program, invariant: Any,
         body,
         test(ForAll(other, Implies(member(other), done(other)))),
     )
+
+
+def Ite(cond: Any, then: Any, other: Any) -> Node:
+    """Formula-level if-then-else (for postconditions such as P = (collide ? 1 : 0)):
+    `Ite(collide, P == 1, P == 0)` is `(collide -> P = 1) & (!collide -> P = 0)`."""
+    c = formula(cond)
+    return And(Implies(c, then), Implies(Not(c), other))
+
+
+def dot(u: Iterable[Any], v: Iterable[Any]) -> Node:
+    """Dot product of two equal-length vectors of terms: `dot((px, py), (nx(i), ny(i)))`."""
+    u, v = list(u), list(v)
+    if len(u) != len(v):
+        raise ModelError(f"dot product of vectors of length {len(u)} and {len(v)}")
+    return add(*(mul(a, b) for a, b in zip(u, v)))

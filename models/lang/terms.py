@@ -516,21 +516,6 @@ def Diamond(program: Any, post: Any) -> Node:
     return Node("diamond", (formula(post),), BOOL, program)
 
 
-def Ite(cond: Any, then: Any, other: Any) -> Node:
-    """Formula-level if-then-else (for postconditions such as P = (collide ? 1 : 0)):
-    `Ite(collide, P == 1, P == 0)` is `(collide -> P = 1) & (!collide -> P = 0)`."""
-    c = formula(cond)
-    return And(Implies(c, then), Implies(Not(c), other))
-
-
-def dot(u: Iterable[Any], v: Iterable[Any]) -> Node:
-    """Dot product of two equal-length vectors of terms: `dot((px, py), (nx(i), ny(i)))`."""
-    u, v = list(u), list(v)
-    if len(u) != len(v):
-        raise ModelError(f"dot product of vectors of length {len(u)} and {len(v)}")
-    return add(*(mul(a, b) for a, b in zip(u, v)))
-
-
 # --------------------------------------------------------------------------- traversal
 
 
@@ -598,45 +583,6 @@ def substitute(n: Node, env: dict[str, Node]) -> Node:
     if n.op in MODALITIES:
         raise ModelError(f"cannot substitute into the modal formula `{n}`; expand it first")
     return rebuild(n, tuple(substitute(a, env) for a in n.args))
-
-
-_SUBSTITUTED: dict[tuple, Node] = {}
-SUBSTITUTED_KEPT = 4096  # results kept; then the memo starts afresh (one family's obligations fit)
-
-
-def substitute_shared(n: Node, env: dict[str, Node]) -> Node:
-    """`substitute`, remembered by the terms' keys: for callers that substitute the same few
-    terms into the same templates again and again (the weakenings, per obligation: 7,338
-    calls, 218 distinct, on sbs.ctrl2 and ctrl2_dynamic). Equal keys give equal results,
-    so this only saves the rebuilding."""
-    key = (n.key, tuple([(name, t.key) for name, t in env.items()]))
-    got = _SUBSTITUTED.get(key)
-    if got is None:
-        if len(_SUBSTITUTED) >= SUBSTITUTED_KEPT:
-            _SUBSTITUTED.clear()
-        got = _SUBSTITUTED[key] = substitute(n, env)
-    return got
-
-
-class NodeMemo:
-    """A pure function's results by node identity, kept across calls: a model's obligations
-    share their hypotheses' nodes, so each transform meets the same subterms once per
-    obligation. The memo holds each node it remembers, so no id is reused while it is in
-    the memo; past `size` entries it starts afresh."""
-
-    def __init__(self, size: int = 100_000) -> None:
-        self._seen: dict[int, tuple[Node, Any]] = {}
-        self.size = size
-
-    def get(self, n: Node, default: Any = None) -> Any:
-        got = self._seen.get(id(n))
-        return default if got is None else got[1]
-
-    def put(self, n: Node, value: Any) -> Any:
-        if len(self._seen) >= self.size:
-            self._seen.clear()
-        self._seen[id(n)] = (n, value)
-        return value
 
 
 def rebuild(n: Node, args: tuple[Node, ...]) -> Node:

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import itertools
 
-from certiloop.models.lang.terms import Node, Var, free_vars, substitute_shared
+from certiloop.models.lang.memos import substitute_shared
+from certiloop.models.lang.terms import Node, Var, free_vars
 from certiloop.proofs.core.abstraction import Instance
 
 MAX_INSTANCES = 16

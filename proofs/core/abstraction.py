@@ -21,12 +21,12 @@ from sympy import QQ
 from sympy.polys.orderings import lex
 from sympy.polys.rings import ring
 
+from certiloop.models.lang.memos import NodeMemo, substitute_shared
 from certiloop.models.lang.terms import (
     REAL,
     And,
     Implies,
     Node,
-    NodeMemo,
     Var,
     add,
     cmp,
@@ -34,7 +34,6 @@ from certiloop.models.lang.terms import (
     free_vars,
     mul,
     rebuild,
-    substitute_shared,
 )
 from certiloop.proofs.core.instantiate import has_quantifier
 

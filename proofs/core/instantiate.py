@@ -14,18 +14,8 @@ from __future__ import annotations
 
 import itertools
 
-from certiloop.models.lang.terms import (
-    INT,
-    REAL,
-    And,
-    Implies,
-    Node,
-    NodeMemo,
-    Var,
-    free_vars,
-    substitute,
-    substitute_shared,
-)
+from certiloop.models.lang.memos import NodeMemo, substitute_shared
+from certiloop.models.lang.terms import INT, REAL, And, Implies, Node, Var, free_vars, substitute
 
 MAX_INSTANCES = 64
 

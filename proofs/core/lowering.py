@@ -14,20 +14,8 @@ from __future__ import annotations
 
 import itertools
 
-from certiloop.models.lang.terms import (
-    BOOL,
-    INT,
-    REAL,
-    And,
-    Iff,
-    Implies,
-    Node,
-    NodeMemo,
-    Not,
-    Var,
-    cmp,
-    rebuild,
-)
+from certiloop.models.lang.memos import NodeMemo
+from certiloop.models.lang.terms import BOOL, INT, REAL, And, Iff, Implies, Node, Not, Var, cmp, rebuild
 
 ATOM_OPS = ("cmp", "select", "var", "true", "false")
 

@@ -12,7 +12,8 @@ from __future__ import annotations
 
 from typing import Callable, Iterator
 
-from certiloop.models.lang.terms import INT, Node, NodeMemo
+from certiloop.models.lang.memos import NodeMemo
+from certiloop.models.lang.terms import INT, Node
 from certiloop.proofs.core.abstraction import Instance, abstract, congruences, fresh_instances, lower_term
 from certiloop.proofs.core.instantiate import instantiate
 from certiloop.proofs.core.lowering import lower

@@ -23,9 +23,9 @@ from __future__ import annotations
 
 from fractions import Fraction
 
-from certiloop.models.lang.conveniences import assign_min, if_
+from certiloop.models.lang.conveniences import assign_min, dot, if_
 from certiloop.models.lang.programs import Program, assign, branch, choice, havoc, loop, ode, seq, skip, test
-from certiloop.models.lang.terms import And, Family, ForAll, Implies, IndexSort, Or, Real, Reals, Var, dot
+from certiloop.models.lang.terms import And, Family, ForAll, Implies, IndexSort, Or, Real, Reals, Var
 from certiloop.models.lang.theorem import Theorem
 
 dm, dr, v, u, U, tol, m, eps, t = Reals("dm dr v u U tol m eps t")

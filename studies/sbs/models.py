@@ -80,8 +80,8 @@ def ctrl1_broken() -> Theorem:
 #  * `xtr` appears without its index in two guards of the KeYmaeraD file; Table 2 writes
 #    xtr(i) everywhere, which we follow.
 
-from certiloop.models.lang.conveniences import foreach  # noqa: E402
-from certiloop.models.lang.terms import BOOL, Family, ForAll, Implies, IndexSort, Var, dot  # noqa: E402
+from certiloop.models.lang.conveniences import dot, foreach  # noqa: E402
+from certiloop.models.lang.terms import BOOL, Family, ForAll, Implies, IndexSort, Var  # noqa: E402
 
 B = IndexSort("B")
 

@@ -20,8 +20,9 @@ from certiloop.models import (
     Reals,
     dot,
 )
-from certiloop.models.lang import terms
-from certiloop.models.lang.terms import NodeMemo, free_vars, substitute, substitute_shared
+from certiloop.models.lang import memos
+from certiloop.models.lang.memos import NodeMemo, substitute_shared
+from certiloop.models.lang.terms import free_vars, substitute
 
 x, y, z = Reals("x y z")
 
@@ -97,12 +98,12 @@ def test_free_vars_are_remembered_but_each_caller_gets_its_own_dict():
 
 
 def test_substitute_shared_agrees_with_substitute_and_is_bounded(monkeypatch):
-    monkeypatch.setattr(terms, "_SUBSTITUTED", {})
-    monkeypatch.setattr(terms, "SUBSTITUTED_KEPT", 3)
+    monkeypatch.setattr(memos, "_SUBSTITUTED", {})
+    monkeypatch.setattr(memos, "SUBSTITUTED_KEPT", 3)
     f = ForAll(y, Implies(x < y, y * y > z))
     for env in ({"x": y + 1}, {"z": x * x}, {"x": z, "z": y}, {"x": y + 1}, {"y": x}):
         assert substitute_shared(f, env).same(substitute(f, env))
-        assert len(terms._SUBSTITUTED) <= 3
+        assert len(memos._SUBSTITUTED) <= 3
     # equal keys, different objects: the remembered result is the same term
     again = substitute_shared(ForAll(y, Implies(x < y, y * y > z)), {"x": y + 1})
     assert again.same(substitute(f, {"x": y + 1}))
